@@ -1,0 +1,102 @@
+#pragma once
+// Camera models as value types. Pixel coordinates follow OpenCV: (0,0) is the centre of the top-left
+// pixel, u to the right, v down; the camera frame has z forward, x right, y down.
+
+#include <cstdint>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <vector>
+
+namespace fleetslam::core {
+
+// Radial-tangential (OpenCV "plumb bob") distortion on normalised coordinates.
+struct RadTan {
+  double k1 = 0.0;
+  double k2 = 0.0;
+  double p1 = 0.0;
+  double p2 = 0.0;
+  double k3 = 0.0;
+
+  bool is_zero() const { return k1 == 0.0 && k2 == 0.0 && p1 == 0.0 && p2 == 0.0 && k3 == 0.0; }
+};
+
+// Pinhole camera with radial-tangential distortion.
+class PinholeCamera {
+ public:
+  PinholeCamera() = default;
+  // Throws std::invalid_argument on non-positive size or focal length, or non-finite values.
+  PinholeCamera(int width, int height, double fx, double fy, double cx, double cy, RadTan distortion = {});
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double fx() const { return fx_; }
+  double fy() const { return fy_; }
+  double cx() const { return cx_; }
+  double cy() const { return cy_; }
+  const RadTan& distortion() const { return distortion_; }
+  Eigen::Matrix3d K() const;
+  // Same intrinsics without distortion (the ideal camera undistorted points live in).
+  PinholeCamera undistorted() const;
+  // Intrinsics for an image scaled by s (pyramid levels, reduced resolution).
+  PinholeCamera scaled(double s) const;
+
+  // Camera-frame point -> distorted pixel. nullopt when z <= min_depth (behind or on the camera plane).
+  std::optional<Eigen::Vector2d> project(const Eigen::Vector3d& p_cam) const;
+  // Same, with the 2x3 Jacobian d(uv)/d(p_cam) when J is not null. Returns false when z <= min_depth.
+  bool project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv, Eigen::Matrix<double, 2, 3>* J) const;
+
+  // Distorted pixel -> point on the z = 1 plane (iterative undistortion). nullopt when it does not converge.
+  std::optional<Eigen::Vector3d> unproject(const Eigen::Vector2d& uv) const;
+  // Distorted pixel and depth along z -> camera-frame point.
+  std::optional<Eigen::Vector3d> unproject(const Eigen::Vector2d& uv, double depth_m) const;
+
+  // Normalised undistorted -> normalised distorted coordinates, with the 2x2 Jacobian when J is not null.
+  Eigen::Vector2d distort(const Eigen::Vector2d& xn, Eigen::Matrix2d* J = nullptr) const;
+  // Inverse of distort (Gauss-Newton); nullopt when it does not converge.
+  std::optional<Eigen::Vector2d> undistort_normalized(const Eigen::Vector2d& xd) const;
+  // Distorted pixels -> pixels of the undistorted() camera. Points that do not converge become NaN.
+  std::vector<Eigen::Vector2d> undistort_points(const std::vector<Eigen::Vector2d>& uv) const;
+
+  bool in_image(const Eigen::Vector2d& uv, double border_px = 0.0) const;
+
+  static constexpr double min_depth = 1e-6;
+
+ private:
+  int width_ = 0;
+  int height_ = 0;
+  double fx_ = 1.0;
+  double fy_ = 1.0;
+  double cx_ = 0.0;
+  double cy_ = 0.0;
+  RadTan distortion_;
+};
+
+// Rectified stereo rig: both images share the (distortion-free) intrinsics `camera`; the right camera
+// sits baseline_m along +x of the left one.
+struct StereoRig {
+  PinholeCamera camera;
+  double baseline_m = 0.0;
+
+  double bf() const { return baseline_m * camera.fx(); }
+  // Disparity (u_left - u_right) in pixels -> depth in metres; nullopt for disparity <= 0.
+  std::optional<double> depth_from_disparity(double disparity_px) const;
+  std::optional<double> disparity_from_depth(double depth_m) const;
+  // Right-image u coordinate of a left-image u at a given depth ("virtual right" for RGB-D).
+  double right_u(double u_left, double depth_m) const { return u_left - bf() / depth_m; }
+};
+
+// RGB-D camera: the colour camera, how raw depth maps to metres, and the virtual baseline
+// (ORB-SLAM's Camera.bf) used to give depth measurements a stereo-like uncertainty.
+struct RgbdCamera {
+  PinholeCamera camera;
+  double depth_scale = 5000.0;  // raw depth units per metre (TUM: 5000, metres = raw / 5000)
+  double bf = 40.0;             // virtual baseline times fx, pixel*metres
+  double min_depth_m = 0.1;
+  double max_depth_m = 10.0;
+
+  // Raw 16-bit depth -> metres; 0 (no measurement) or out-of-range values give 0.
+  double depth_m_from_raw(std::uint16_t raw) const;
+};
+
+}  // namespace fleetslam::core

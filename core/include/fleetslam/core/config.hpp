@@ -1,0 +1,183 @@
+#pragma once
+// Typed YAML configuration. A config struct keeps its defaults in its members and lists its fields
+// once, in a visit function that both reads and writes it:
+//
+//   struct MatcherConfig {
+//     double radius_px = 15.0;
+//     int max_hamming = 50;
+//     bool cross_validation = true;
+//     template <class V> void visit(V& v) {
+//       v("radius_px", radius_px, Limits<double>{0.5, 200.0});
+//       v("max_hamming", max_hamming, Limits<int>{0, 256});
+//       v("cross_validation", cross_validation);
+//     }
+//   };
+//   auto cfg = load_config<MatcherConfig>("agent.yaml", "matching");
+//
+// Reading: absent keys keep their defaults; v.required(...) makes a key mandatory; unknown keys, wrong
+// types and values outside the limits are InputErrors "file:section.key: why (line N)".
+// Nested structs with a visit function read from a sub-map; enums read from names via v.choice(...).
+
+#include <cstdint>
+#include <filesystem>
+#include <initializer_list>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace fleetslam::core {
+
+template <class T>
+struct Limits {
+  T min = std::numeric_limits<T>::lowest();
+  T max = std::numeric_limits<T>::max();
+};
+
+namespace detail {
+template <class T, class = void>
+struct HasVisit : std::false_type {};
+}  // namespace detail
+
+// Reads one YAML map into a config struct; see the file comment.
+class ConfigReader {
+ public:
+  // Parses a whole file (throws InputError naming the file on unreadable or malformed YAML).
+  static ConfigReader from_file(const std::filesystem::path& file);
+  // Parses text; `name` stands for the file in messages.
+  static ConfigReader from_string(const std::string& text, const std::string& name);
+
+  ~ConfigReader();
+  ConfigReader(ConfigReader&&) noexcept;
+  ConfigReader& operator=(ConfigReader&&) noexcept;
+
+  // The sub-map at a dotted key path ("agent.matching"); an absent section is an empty map
+  // (every field keeps its default). A present non-map is an error.
+  ConfigReader section(const std::string& dotted_key) const;
+  bool has(const std::string& key) const;
+
+  void operator()(const char* key, bool& value);
+  void operator()(const char* key, int& value, Limits<int> limits = {});
+  void operator()(const char* key, std::int64_t& value, Limits<std::int64_t> limits = {});
+  void operator()(const char* key, double& value, Limits<double> limits = {});
+  void operator()(const char* key, std::string& value);
+  void operator()(const char* key, std::vector<double>& value);
+  void operator()(const char* key, std::vector<std::string>& value);
+
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, Struct& value) {
+    mark_seen(key);
+    ConfigReader child = section(key);
+    value.visit(child);
+    child.finish();
+  }
+
+  // Like operator() but the key must be present.
+  template <class T, class... Extra>
+  void required(const char* key, T& value, Extra&&... extra) {
+    require_present(key);
+    (*this)(key, value, std::forward<Extra>(extra)...);
+  }
+
+  // Enum (or any value) chosen by name: v.choice("policy", policy, {{"orbslam3", Policy::kOrbslam3}, ...}).
+  template <class E>
+  void choice(const char* key, E& value, std::initializer_list<std::pair<const char*, E>> options) {
+    std::vector<std::string> names;
+    for (const auto& option : options) names.emplace_back(option.first);
+    std::optional<std::size_t> picked = read_choice(key, names);
+    if (picked) value = (options.begin() + *picked)->second;
+  }
+
+  // Throws InputError for keys present in the map that no visit asked for.
+  void finish() const;
+
+  // "file" and the dotted path of this map, for messages.
+  std::string where(const std::string& key) const;
+
+ private:
+  struct Impl;
+  explicit ConfigReader(std::unique_ptr<Impl> impl);
+  void mark_seen(const char* key);
+  void require_present(const char* key) const;
+  std::optional<std::size_t> read_choice(const char* key, const std::vector<std::string>& names);
+
+  std::unique_ptr<Impl> impl_;
+};
+
+// Writes a config struct as YAML (the effective config written beside every run's outputs).
+class ConfigWriter {
+ public:
+  ConfigWriter();
+  ~ConfigWriter();
+  ConfigWriter(const ConfigWriter&) = delete;
+  ConfigWriter& operator=(const ConfigWriter&) = delete;
+
+  void operator()(const char* key, const bool& value);
+  void operator()(const char* key, const int& value, Limits<int> = {});
+  void operator()(const char* key, const std::int64_t& value, Limits<std::int64_t> = {});
+  void operator()(const char* key, const double& value, Limits<double> = {});
+  void operator()(const char* key, const std::string& value);
+  void operator()(const char* key, const std::vector<double>& value);
+  void operator()(const char* key, const std::vector<std::string>& value);
+
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, Struct& value) {
+    begin_map(key);
+    value.visit(*this);
+    end_map();
+  }
+  template <class T, class... Extra>
+  void required(const char* key, T& value, Extra&&... extra) {
+    (*this)(key, value, std::forward<Extra>(extra)...);
+  }
+  template <class E>
+  void choice(const char* key, const E& value, std::initializer_list<std::pair<const char*, E>> options) {
+    for (const auto& option : options) {
+      if (option.second == value) {
+        (*this)(key, std::string(option.first));
+        return;
+      }
+    }
+  }
+
+  void begin_map(const char* key);
+  void end_map();
+  std::string str() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+namespace detail {
+template <class T>
+struct HasVisit<T, std::void_t<decltype(std::declval<T&>().visit(std::declval<ConfigReader&>()))>>
+    : std::true_type {};
+}  // namespace detail
+
+// Reads `section` (dotted path, "" for the whole file) of a YAML file into Config, rejecting unknown keys.
+template <class Config>
+Config load_config(const ConfigReader& root, const std::string& section = "") {
+  Config config;
+  ConfigReader reader = section.empty() ? root.section("") : root.section(section);
+  config.visit(reader);
+  reader.finish();
+  return config;
+}
+template <class Config>
+Config load_config(const std::filesystem::path& file, const std::string& section = "") {
+  return load_config<Config>(ConfigReader::from_file(file), section);
+}
+
+// YAML text of a config struct, every field with its effective value.
+template <class Config>
+std::string config_to_yaml(Config config) {
+  ConfigWriter writer;
+  config.visit(writer);
+  return writer.str();
+}
+
+}  // namespace fleetslam::core

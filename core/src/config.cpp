@@ -1,0 +1,324 @@
+#include "fleetslam/core/config.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::core {
+
+struct ConfigReader::Impl {
+  YAML::Node node;           // a map (possibly empty)
+  std::string file;          // for messages
+  std::string path;          // dotted path of this map from the file root, "" at the root
+  std::set<std::string> seen;
+};
+
+namespace {
+
+std::string join_key(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+std::string line_suffix(const YAML::Node& node) {
+  const YAML::Mark mark = node.Mark();
+  if (mark.line < 0) return "";
+  return " (line " + std::to_string(mark.line + 1) + ")";
+}
+
+std::string describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Map: return "a map";
+    case YAML::NodeType::Sequence: return "a list";
+    case YAML::NodeType::Null: return "nothing";
+    case YAML::NodeType::Scalar: return "'" + node.Scalar() + "'";
+    default: return "an undefined value";
+  }
+}
+
+// Shortest decimal text that reads back to the same double.
+std::string format_double(double value) {
+  char buffer[64];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buffer, sizeof buffer, "%.*g", precision, value);
+    if (std::strtod(buffer, nullptr) == value) break;
+  }
+  std::string text = buffer;
+  if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // keep it a float in YAML
+  return text;
+}
+
+template <class T>
+std::string format_limit(T value) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return format_double(static_cast<double>(value));
+  } else {
+    return std::to_string(value);
+  }
+}
+
+}  // namespace
+
+ConfigReader::ConfigReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ConfigReader::~ConfigReader() = default;
+ConfigReader::ConfigReader(ConfigReader&&) noexcept = default;
+ConfigReader& ConfigReader::operator=(ConfigReader&&) noexcept = default;
+
+ConfigReader ConfigReader::from_string(const std::string& text, const std::string& name) {
+  auto impl = std::make_unique<Impl>();
+  impl->file = name;
+  try {
+    impl->node = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(name + ":" + std::to_string(e.mark.line + 1), "malformed YAML: " + e.msg);
+  }
+  if (impl->node.IsNull()) {
+    impl->node = YAML::Node(YAML::NodeType::Map);
+  } else if (!impl->node.IsMap()) {
+    throw InputError(name, "expected a YAML map at the top level, got " + describe(impl->node));
+  }
+  return ConfigReader(std::move(impl));
+}
+
+ConfigReader ConfigReader::from_file(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw InputError(file.string(), "cannot open config file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return from_string(text.str(), file.string());
+}
+
+std::string ConfigReader::where(const std::string& key) const {
+  return impl_->file + ":" + join_key(impl_->path, key);
+}
+
+bool ConfigReader::has(const std::string& key) const {
+  const YAML::Node& node = impl_->node;
+  return static_cast<bool>(node[key]);
+}
+
+ConfigReader ConfigReader::section(const std::string& dotted_key) const {
+  auto impl = std::make_unique<Impl>();
+  impl->file = impl_->file;
+  impl->path = impl_->path;
+  impl->node = impl_->node;
+  std::stringstream parts(dotted_key);
+  std::string part;
+  while (std::getline(parts, part, '.')) {
+    if (part.empty()) continue;
+    const YAML::Node& parent = impl->node;
+    YAML::Node child = parent[part];
+    impl->path = join_key(impl->path, part);
+    if (!child || child.IsNull()) {
+      impl->node = YAML::Node(YAML::NodeType::Map);
+    } else if (!child.IsMap()) {
+      throw InputError(impl->file + ":" + impl->path,
+                       "expected a map, got " + describe(child) + line_suffix(child));
+    } else {
+      impl->node = child;
+    }
+  }
+  return ConfigReader(std::move(impl));
+}
+
+void ConfigReader::mark_seen(const char* key) { impl_->seen.insert(key); }
+
+void ConfigReader::require_present(const char* key) const {
+  const YAML::Node& node = impl_->node;
+  if (!node[key]) throw InputError(where(key), "required key is missing");
+}
+
+namespace {
+
+// The scalar at key, or an undefined node when absent. Throws when present but not a scalar.
+YAML::Node scalar_at(const YAML::Node& map, const std::string& where, const char* key, const char* expected) {
+  YAML::Node value = map[key];
+  if (!value) return value;
+  if (!value.IsScalar()) {
+    throw InputError(where, std::string("expected ") + expected + ", got " + describe(value) + line_suffix(value));
+  }
+  return value;
+}
+
+template <class T>
+void read_number(const YAML::Node& map, const std::string& where, const char* key, T& out, Limits<T> limits,
+                 const char* expected) {
+  const YAML::Node value = scalar_at(map, where, key, expected);
+  if (!value) return;
+  T parsed{};
+  try {
+    parsed = value.as<T>();
+  } catch (const YAML::Exception&) {
+    throw InputError(where, std::string("expected ") + expected + ", got " + describe(value) + line_suffix(value));
+  }
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(parsed)) {
+      throw InputError(where, "expected a finite number, got " + describe(value) + line_suffix(value));
+    }
+  }
+  if (parsed < limits.min || parsed > limits.max) {
+    throw InputError(where, value.Scalar() + " is outside [" + format_limit(limits.min) + ", " +
+                                format_limit(limits.max) + "]" + line_suffix(value));
+  }
+  out = parsed;
+}
+
+}  // namespace
+
+void ConfigReader::operator()(const char* key, bool& value) {
+  mark_seen(key);
+  const YAML::Node node = scalar_at(impl_->node, where(key), key, "true or false");
+  if (!node) return;
+  try {
+    value = node.as<bool>();
+  } catch (const YAML::Exception&) {
+    throw InputError(where(key), "expected true or false, got " + describe(node) + line_suffix(node));
+  }
+}
+
+void ConfigReader::operator()(const char* key, int& value, Limits<int> limits) {
+  mark_seen(key);
+  read_number(impl_->node, where(key), key, value, limits, "an integer");
+}
+
+void ConfigReader::operator()(const char* key, std::int64_t& value, Limits<std::int64_t> limits) {
+  mark_seen(key);
+  read_number(impl_->node, where(key), key, value, limits, "an integer");
+}
+
+void ConfigReader::operator()(const char* key, double& value, Limits<double> limits) {
+  mark_seen(key);
+  read_number(impl_->node, where(key), key, value, limits, "a number");
+}
+
+void ConfigReader::operator()(const char* key, std::string& value) {
+  mark_seen(key);
+  const YAML::Node node = scalar_at(impl_->node, where(key), key, "a string");
+  if (node) value = node.Scalar();
+}
+
+void ConfigReader::operator()(const char* key, std::vector<double>& value) {
+  mark_seen(key);
+  const YAML::Node& map = impl_->node;
+  const YAML::Node node = map[key];
+  if (!node) return;
+  if (!node.IsSequence()) {
+    throw InputError(where(key), "expected a list of numbers, got " + describe(node) + line_suffix(node));
+  }
+  std::vector<double> parsed;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const std::string item_where = where(key) + "[" + std::to_string(i) + "]";
+    double item = 0.0;
+    try {
+      if (!node[i].IsScalar()) throw YAML::Exception(node[i].Mark(), "not a scalar");
+      item = node[i].as<double>();
+    } catch (const YAML::Exception&) {
+      throw InputError(item_where, "expected a number, got " + describe(node[i]) + line_suffix(node[i]));
+    }
+    if (!std::isfinite(item)) throw InputError(item_where, "expected a finite number" + line_suffix(node[i]));
+    parsed.push_back(item);
+  }
+  value = std::move(parsed);
+}
+
+void ConfigReader::operator()(const char* key, std::vector<std::string>& value) {
+  mark_seen(key);
+  const YAML::Node& map = impl_->node;
+  const YAML::Node node = map[key];
+  if (!node) return;
+  if (!node.IsSequence()) {
+    throw InputError(where(key), "expected a list of strings, got " + describe(node) + line_suffix(node));
+  }
+  std::vector<std::string> parsed;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    if (!node[i].IsScalar()) {
+      throw InputError(where(key) + "[" + std::to_string(i) + "]",
+                       "expected a string, got " + describe(node[i]) + line_suffix(node[i]));
+    }
+    parsed.push_back(node[i].Scalar());
+  }
+  value = std::move(parsed);
+}
+
+std::optional<std::size_t> ConfigReader::read_choice(const char* key, const std::vector<std::string>& names) {
+  std::string name;
+  (*this)(key, name);
+  if (name.empty() && !has(key)) return std::nullopt;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return i;
+  }
+  std::string known;
+  for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+  const YAML::Node& map = impl_->node;
+  throw InputError(where(key), "unknown value '" + name + "' (expected one of: " + known + ")" +
+                                   line_suffix(map[key]));
+}
+
+void ConfigReader::finish() const {
+  for (const auto& entry : impl_->node) {
+    const std::string key = entry.first.Scalar();
+    if (impl_->seen.count(key) == 0) {
+      std::string known;
+      for (const auto& k : impl_->seen) known += (known.empty() ? "" : ", ") + k;
+      throw InputError(where(key), "unknown key" + line_suffix(entry.first) +
+                                       (known.empty() ? "" : " (known keys: " + known + ")"));
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+struct ConfigWriter::Impl {
+  YAML::Node root{YAML::NodeType::Map};
+  std::vector<YAML::Node> stack{root};
+  YAML::Node& top() { return stack.back(); }
+};
+
+ConfigWriter::ConfigWriter() : impl_(std::make_unique<Impl>()) {}
+ConfigWriter::~ConfigWriter() = default;
+
+void ConfigWriter::operator()(const char* key, const bool& value) { impl_->top()[key] = value; }
+void ConfigWriter::operator()(const char* key, const int& value, Limits<int>) { impl_->top()[key] = value; }
+void ConfigWriter::operator()(const char* key, const std::int64_t& value, Limits<std::int64_t>) {
+  impl_->top()[key] = value;
+}
+void ConfigWriter::operator()(const char* key, const double& value, Limits<double>) {
+  impl_->top()[key] = format_double(value);
+}
+void ConfigWriter::operator()(const char* key, const std::string& value) { impl_->top()[key] = value; }
+void ConfigWriter::operator()(const char* key, const std::vector<double>& value) {
+  YAML::Node list(YAML::NodeType::Sequence);
+  for (double v : value) list.push_back(format_double(v));
+  list.SetStyle(YAML::EmitterStyle::Flow);
+  impl_->top()[key] = list;
+}
+void ConfigWriter::operator()(const char* key, const std::vector<std::string>& value) {
+  YAML::Node list(YAML::NodeType::Sequence);
+  for (const auto& v : value) list.push_back(v);
+  list.SetStyle(YAML::EmitterStyle::Flow);
+  impl_->top()[key] = list;
+}
+
+void ConfigWriter::begin_map(const char* key) {
+  YAML::Node child(YAML::NodeType::Map);
+  impl_->top()[key] = child;
+  impl_->stack.push_back(child);
+}
+
+void ConfigWriter::end_map() {
+  FLEETSLAM_CHECK(impl_->stack.size() > 1, "end_map without begin_map");
+  impl_->stack.pop_back();
+}
+
+std::string ConfigWriter::str() const {
+  YAML::Emitter out;
+  out << impl_->root;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace fleetslam::core

@@ -1,0 +1,132 @@
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::core {
+namespace {
+
+enum class Policy { kOrbslam3, kExponential, kFixedInterval };
+
+struct InnerConfig {
+  double radius_m = 0.5;
+  std::vector<double> weights = {1.0, 2.0};
+  template <class V>
+  void visit(V& v) {
+    v("radius_m", radius_m, Limits<double>{0.0, 10.0});
+    v("weights", weights);
+  }
+};
+
+struct OuterConfig {
+  int levels = 8;
+  bool enabled = true;
+  std::string name = "agent";
+  std::int64_t seed = 7;
+  Policy policy = Policy::kOrbslam3;
+  double required_value = 0.0;
+  InnerConfig inner;
+  template <class V>
+  void visit(V& v) {
+    v("levels", levels, Limits<int>{1, 16});
+    v("enabled", enabled);
+    v("name", name);
+    v("seed", seed);
+    v.choice("policy", policy,
+             {{"orbslam3", Policy::kOrbslam3}, {"exponential", Policy::kExponential},
+              {"fixed_interval", Policy::kFixedInterval}});
+    v.required("required_value", required_value);
+    v("inner", inner);
+  }
+};
+
+OuterConfig load(const std::string& text, const std::string& section = "") {
+  return load_config<OuterConfig>(ConfigReader::from_string(text, "agent.yaml"), section);
+}
+
+std::string error_of(const std::string& text, const std::string& section = "") {
+  try {
+    load(text, section);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(Config, AbsentKeysKeepDefaults) {
+  const OuterConfig c = load("required_value: 1.5\n");
+  EXPECT_EQ(c.levels, 8);
+  EXPECT_TRUE(c.enabled);
+  EXPECT_EQ(c.policy, Policy::kOrbslam3);
+  EXPECT_DOUBLE_EQ(c.inner.radius_m, 0.5);
+  EXPECT_DOUBLE_EQ(c.required_value, 1.5);
+}
+
+TEST(Config, ReadsEveryType) {
+  const OuterConfig c = load(
+      "levels: 4\nenabled: false\nname: robot_a\nseed: 123456789012\npolicy: exponential\n"
+      "required_value: -2\ninner: {radius_m: 0.25, weights: [3, 4.5]}\n");
+  EXPECT_EQ(c.levels, 4);
+  EXPECT_FALSE(c.enabled);
+  EXPECT_EQ(c.name, "robot_a");
+  EXPECT_EQ(c.seed, 123456789012);
+  EXPECT_EQ(c.policy, Policy::kExponential);
+  EXPECT_DOUBLE_EQ(c.inner.radius_m, 0.25);
+  EXPECT_EQ(c.inner.weights, (std::vector<double>{3.0, 4.5}));
+}
+
+TEST(Config, ReadsASection) {
+  const OuterConfig c = load("agent:\n  tracking:\n    levels: 3\n    required_value: 1\nother: 5\n",
+                             "agent.tracking");
+  EXPECT_EQ(c.levels, 3);
+}
+
+TEST(Config, ErrorsNameFileAndKey) {
+  EXPECT_EQ(error_of("levels: 4\n"), "agent.yaml:required_value: required key is missing");
+  EXPECT_EQ(error_of("required_value: 1\nlevles: 4\n").rfind("agent.yaml:levles: unknown key (line 2)", 0), 0u);
+  EXPECT_EQ(error_of("required_value: 1\nlevels: four\n"),
+            "agent.yaml:levels: expected an integer, got 'four' (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\nlevels: 2.5\n"),
+            "agent.yaml:levels: expected an integer, got '2.5' (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\nlevels: 17\n"), "agent.yaml:levels: 17 is outside [1, 16] (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\nenabled: maybe\n"),
+            "agent.yaml:enabled: expected true or false, got 'maybe' (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\npolicy: greedy\n"),
+            "agent.yaml:policy: unknown value 'greedy' (expected one of: orbslam3, exponential, "
+            "fixed_interval) (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\ninner:\n  radius_m: 11\n"),
+            "agent.yaml:inner.radius_m: 11 is outside [0.0, 10.0] (line 3)");
+  EXPECT_EQ(error_of("required_value: 1\ninner:\n  radius: 1\n").rfind("agent.yaml:inner.radius: unknown key", 0), 0u);
+  EXPECT_EQ(error_of("required_value: 1\ninner: 3\n"), "agent.yaml:inner: expected a map, got '3' (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\ninner: {weights: [1, x]}\n"),
+            "agent.yaml:inner.weights[1]: expected a number, got 'x' (line 2)");
+  EXPECT_EQ(error_of("required_value: .nan\n"),
+            "agent.yaml:required_value: expected a finite number, got '.nan' (line 1)");
+  EXPECT_EQ(error_of("required_value: [1]\n"),
+            "agent.yaml:required_value: expected a number, got a list (line 1)");
+  EXPECT_EQ(error_of("- 1\n- 2\n"), "agent.yaml: expected a YAML map at the top level, got a list");
+  EXPECT_EQ(error_of("a: [1, 2\n").rfind("agent.yaml:", 0), 0u);
+  EXPECT_NE(error_of("a: [1, 2\n").find("malformed YAML"), std::string::npos);
+}
+
+TEST(Config, MissingFileIsAnInputError) {
+  EXPECT_THROW(ConfigReader::from_file("/nonexistent/agent.yaml"), InputError);
+}
+
+TEST(Config, WrittenConfigReadsBackIdentically) {
+  OuterConfig c = load("required_value: 0.1\nlevels: 5\npolicy: fixed_interval\ninner: {radius_m: 0.3}\n");
+  c.inner.weights = {0.1, 1.0 / 3.0, 1e-300};
+  const std::string yaml = config_to_yaml(c);
+  const OuterConfig back = load(yaml);
+  EXPECT_EQ(back.levels, 5);
+  EXPECT_EQ(back.policy, Policy::kFixedInterval);
+  EXPECT_EQ(back.required_value, 0.1);
+  EXPECT_EQ(back.inner.weights, c.inner.weights);  // bit-exact doubles
+  EXPECT_EQ(config_to_yaml(back), yaml);
+}
+
+}  // namespace
+}  // namespace fleetslam::core

@@ -1,0 +1,18 @@
+#pragma once
+// Subcommands of the `fleetslam` CLI. Each registers itself on the app and runs from its callback;
+// failures throw (fleetslam::InputError for bad input), and main prints one line and exits non-zero.
+
+#include <CLI/CLI.hpp>
+
+namespace fleetslam::tools {
+
+// Options shared by every command.
+struct GlobalOptions {
+  bool verbose = false;
+  bool quiet = false;
+};
+
+// fleetslam eval --gt G --est E [--align se3|sim3|none] [--format tum|euroc|kitti] [--out DIR]
+void add_eval_command(CLI::App& app, const GlobalOptions& global);
+
+}  // namespace fleetslam::tools
