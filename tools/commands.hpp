@@ -15,4 +15,8 @@ struct GlobalOptions {
 // fleetslam eval --gt G --est E [--align se3|sim3|none] [--format tum|euroc|kitti] [--out DIR]
 void add_eval_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam dataset info|convert ...: inspect a TUM RGB-D / EuRoC / TUM-VI sequence, or rewrite it in
+// another of those formats.
+void add_dataset_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools
