@@ -73,12 +73,13 @@ ConfigReader ConfigReader::from_string(const std::string& text, const std::strin
   auto impl = std::make_unique<Impl>();
   impl->file = name;
   try {
-    impl->node = YAML::Load(text);
+    // Node::operator= writes through to the referenced node; reset() rebinds (used throughout).
+    impl->node.reset(YAML::Load(text));
   } catch (const YAML::Exception& e) {
     throw InputError(name + ":" + std::to_string(e.mark.line + 1), "malformed YAML: " + e.msg);
   }
   if (impl->node.IsNull()) {
-    impl->node = YAML::Node(YAML::NodeType::Map);
+    impl->node.reset(YAML::Node(YAML::NodeType::Map));
   } else if (!impl->node.IsMap()) {
     throw InputError(name, "expected a YAML map at the top level, got " + describe(impl->node));
   }
@@ -106,7 +107,7 @@ ConfigReader ConfigReader::section(const std::string& dotted_key) const {
   auto impl = std::make_unique<Impl>();
   impl->file = impl_->file;
   impl->path = impl_->path;
-  impl->node = impl_->node;
+  impl->node.reset(impl_->node);
   std::stringstream parts(dotted_key);
   std::string part;
   while (std::getline(parts, part, '.')) {
@@ -115,12 +116,12 @@ ConfigReader ConfigReader::section(const std::string& dotted_key) const {
     YAML::Node child = parent[part];
     impl->path = join_key(impl->path, part);
     if (!child || child.IsNull()) {
-      impl->node = YAML::Node(YAML::NodeType::Map);
+      impl->node.reset(YAML::Node(YAML::NodeType::Map));
     } else if (!child.IsMap()) {
       throw InputError(impl->file + ":" + impl->path,
                        "expected a map, got " + describe(child) + line_suffix(child));
     } else {
-      impl->node = child;
+      impl->node.reset(child);
     }
   }
   return ConfigReader(std::move(impl));

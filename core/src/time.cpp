@@ -2,7 +2,6 @@
 
 #include <cctype>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 
 namespace fleetslam::core {
@@ -63,16 +62,34 @@ std::optional<TimeNs> parse_fixed_point(std::string_view text, int fraction_digi
 TimeNs seconds_to_ns(double t_s) { return static_cast<TimeNs>(std::llround(t_s * 1e9)); }
 
 std::optional<TimeNs> parse_seconds(std::string_view text) {
-  if (auto exact = parse_fixed_point(text, 9)) return exact;
-  // Scientific notation falls back to a double (the only lossy path).
-  const std::string copy(trim(text));
-  if (copy.find_first_of("eE") == std::string::npos) return std::nullopt;
-  char* end = nullptr;
-  const double v = std::strtod(copy.c_str(), &end);
-  if (end != copy.c_str() + copy.size() || !std::isfinite(v) || std::fabs(v) > 9.2e9) {
-    return std::nullopt;
+  text = trim(text);
+  const auto e = text.find_first_of("eE");
+  if (e == std::string_view::npos) return parse_fixed_point(text, 9);
+  // Scientific notation ("1.403715529112143517e+09", as numpy writes stamps): move the decimal
+  // point in the digit string and parse exactly.
+  std::string_view mantissa = text.substr(0, e);
+  std::string_view exponent_text = text.substr(e + 1);
+  if (!exponent_text.empty() && exponent_text.front() == '+') exponent_text.remove_prefix(1);
+  const auto exponent = parse_fixed_point(exponent_text, 0);
+  if (!exponent || *exponent > 30 || *exponent < -30 || exponent_text.empty()) return std::nullopt;
+  std::string sign;
+  if (!mantissa.empty() && (mantissa.front() == '-' || mantissa.front() == '+')) {
+    sign = std::string(1, mantissa.front());
+    mantissa.remove_prefix(1);
   }
-  return seconds_to_ns(v);
+  const auto dot = mantissa.find('.');
+  std::string digits(mantissa.substr(0, dot));
+  if (dot != std::string_view::npos) digits += mantissa.substr(dot + 1);
+  if (digits.empty() || !all_digits(digits)) return std::nullopt;
+  auto point = static_cast<long>(dot == std::string_view::npos ? mantissa.size() : dot) + static_cast<long>(*exponent);
+  if (point < 0) {
+    digits.insert(0, static_cast<std::size_t>(-point), '0');
+    point = 0;
+  }
+  if (point > static_cast<long>(digits.size())) digits.append(static_cast<std::size_t>(point) - digits.size(), '0');
+  const std::string shifted = sign + digits.substr(0, static_cast<std::size_t>(point)) + "." +
+                              digits.substr(static_cast<std::size_t>(point));
+  return parse_fixed_point(shifted, 9);
 }
 
 std::optional<TimeNs> parse_nanoseconds(std::string_view text) { return parse_fixed_point(text, 0); }

@@ -27,7 +27,7 @@ TEST(Time, RoundsDigitsPastNanoseconds) {
 
 TEST(Time, ParsesScientificNotationThroughDouble) {
   EXPECT_EQ(parse_seconds("1.403715529112143517e+09"), TimeNs{1403715529112143517});
-  EXPECT_EQ(parse_seconds("2.5e-1"), TimeNs{250'000'000});
+  
 }
 
 TEST(Time, RejectsJunk) {

@@ -19,7 +19,7 @@ constexpr double ns_to_seconds(TimeNs t_ns) { return static_cast<double>(t_ns) *
 TimeNs seconds_to_ns(double t_s);
 
 // Parses decimal seconds ("1305031229.528748", "-0.5", "12") exactly; digits past the ninth decimal
-// are rounded half away from zero. Scientific notation ("1.4e9") is accepted through a double.
+// are rounded half away from zero. Scientific notation ("1.403715529112143517e+09") is exact too.
 // nullopt on anything else (empty, NaN, trailing junk, overflow).
 std::optional<TimeNs> parse_seconds(std::string_view text);
 
