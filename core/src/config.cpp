@@ -246,6 +246,29 @@ void ConfigReader::operator()(const char* key, std::vector<std::string>& value) 
   value = std::move(parsed);
 }
 
+std::size_t ConfigReader::list_size(const char* key) const {
+  const YAML::Node& map = impl_->node;
+  const YAML::Node node = map[key];
+  if (!node || node.IsNull()) return kAbsent;
+  if (!node.IsSequence()) {
+    throw InputError(where(key), "expected a list of maps, got " + describe(node) + line_suffix(node));
+  }
+  return node.size();
+}
+
+ConfigReader ConfigReader::list_item(const char* key, std::size_t index) const {
+  const YAML::Node& map = impl_->node;
+  const YAML::Node item = map[key][index];
+  auto impl = std::make_unique<Impl>();
+  impl->file = impl_->file;
+  impl->path = join_key(impl_->path, key) + "[" + std::to_string(index) + "]";
+  if (!item.IsMap()) {
+    throw InputError(impl->file + ":" + impl->path, "expected a map, got " + describe(item) + line_suffix(item));
+  }
+  impl->node.reset(item);
+  return ConfigReader(std::move(impl));
+}
+
 std::optional<std::size_t> ConfigReader::read_choice(const char* key, const std::vector<std::string>& names) {
   std::string name;
   (*this)(key, name);
@@ -310,6 +333,20 @@ void ConfigWriter::begin_map(const char* key) {
   impl_->top()[key] = child;
   impl_->stack.push_back(child);
 }
+
+void ConfigWriter::begin_list(const char* key) {
+  YAML::Node list(YAML::NodeType::Sequence);
+  impl_->top()[key] = list;
+  impl_->stack.push_back(list);
+}
+
+void ConfigWriter::begin_list_item() {
+  YAML::Node item(YAML::NodeType::Map);
+  impl_->top().push_back(item);
+  impl_->stack.push_back(item);
+}
+
+void ConfigWriter::end_list() { end_map(); }
 
 void ConfigWriter::end_map() {
   FLEETSLAM_CHECK(impl_->stack.size() > 1, "end_map without begin_map");

@@ -112,6 +112,54 @@ TEST(Config, ErrorsNameFileAndKey) {
   EXPECT_NE(error_of("a: [1, 2\n").find("malformed YAML"), std::string::npos);
 }
 
+struct RobotConfig {
+  std::string name;
+  double speed_mps = 0.5;
+  template <class V>
+  void visit(V& v) {
+    v.required("name", name);
+    v("speed_mps", speed_mps, Limits<double>{0.0, 5.0});
+  }
+};
+
+struct FleetConfig {
+  std::vector<RobotConfig> robots;
+  template <class V>
+  void visit(V& v) {
+    v("robots", robots);
+  }
+};
+
+TEST(Config, ReadsListsOfStructs) {
+  const auto fleet = load_config<FleetConfig>(
+      ConfigReader::from_string("robots:\n  - {name: a}\n  - {name: b, speed_mps: 1.5}\n", "fleet.yaml"));
+  ASSERT_EQ(fleet.robots.size(), 2u);
+  EXPECT_EQ(fleet.robots[0].name, "a");
+  EXPECT_DOUBLE_EQ(fleet.robots[0].speed_mps, 0.5);
+  EXPECT_DOUBLE_EQ(fleet.robots[1].speed_mps, 1.5);
+  const auto back = load_config<FleetConfig>(ConfigReader::from_string(config_to_yaml(fleet), "back.yaml"));
+  ASSERT_EQ(back.robots.size(), 2u);
+  EXPECT_EQ(back.robots[1].name, "b");
+}
+
+TEST(Config, ListErrorsNameTheItem) {
+  auto error_of_fleet = [](const std::string& text) -> std::string {
+    try {
+      load_config<FleetConfig>(ConfigReader::from_string(text, "fleet.yaml"));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error_of_fleet("robots:\n  - {name: a}\n  - {speed_mps: 1}\n"),
+            "fleet.yaml:robots[1].name: required key is missing");
+  EXPECT_EQ(error_of_fleet("robots:\n  - {name: a, speed_mps: 9}\n"),
+            "fleet.yaml:robots[0].speed_mps: 9 is outside [0.0, 5.0] (line 2)");
+  EXPECT_EQ(error_of_fleet("robots: 3\n"), "fleet.yaml:robots: expected a list of maps, got '3' (line 1)");
+  EXPECT_EQ(error_of_fleet("robots: [1]\n"), "fleet.yaml:robots[0]: expected a map, got '1' (line 1)");
+  EXPECT_EQ(error_of_fleet("robots:\n  - {name: a, colour: red}\n").rfind("fleet.yaml:robots[0].colour: unknown key", 0), 0u);
+}
+
 TEST(Config, MissingFileIsAnInputError) {
   EXPECT_THROW(ConfigReader::from_file("/nonexistent/agent.yaml"), InputError);
 }

@@ -16,7 +16,8 @@
 //
 // Reading: absent keys keep their defaults; v.required(...) makes a key mandatory; unknown keys, wrong
 // types and values outside the limits are InputErrors "file:section.key: why (line N)".
-// Nested structs with a visit function read from a sub-map; enums read from names via v.choice(...).
+// Nested structs with a visit function read from a sub-map, std::vector<Struct> from a list of maps;
+// enums read from names via v.choice(...).
 
 #include <cstdint>
 #include <filesystem>
@@ -75,6 +76,23 @@ class ConfigReader {
     child.finish();
   }
 
+  // A list of maps, each read into a Struct that starts from `prototype` (defaults for every item).
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, std::vector<Struct>& value, const Struct& prototype = Struct{}) {
+    mark_seen(key);
+    const std::size_t count = list_size(key);
+    if (count == kAbsent) return;
+    std::vector<Struct> items;
+    for (std::size_t i = 0; i < count; ++i) {
+      Struct item = prototype;
+      ConfigReader child = list_item(key, i);
+      item.visit(child);
+      child.finish();
+      items.push_back(std::move(item));
+    }
+    value = std::move(items);
+  }
+
   // Like operator() but the key must be present.
   template <class T, class... Extra>
   void required(const char* key, T& value, Extra&&... extra) {
@@ -103,6 +121,11 @@ class ConfigReader {
   void mark_seen(const char* key);
   void require_present(const char* key) const;
   std::optional<std::size_t> read_choice(const char* key, const std::vector<std::string>& names);
+  static constexpr std::size_t kAbsent = static_cast<std::size_t>(-1);
+  // Number of items of the list at key (kAbsent when the key is absent); throws when not a list.
+  std::size_t list_size(const char* key) const;
+  // Reader over the i-th item (a map) of the list at key; its messages say "key[i].field".
+  ConfigReader list_item(const char* key, std::size_t index) const;
 
   std::unique_ptr<Impl> impl_;
 };
@@ -129,6 +152,16 @@ class ConfigWriter {
     value.visit(*this);
     end_map();
   }
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, std::vector<Struct>& value, const Struct& = Struct{}) {
+    begin_list(key);
+    for (Struct& item : value) {
+      begin_list_item();
+      item.visit(*this);
+      end_map();
+    }
+    end_list();
+  }
   template <class T, class... Extra>
   void required(const char* key, T& value, Extra&&... extra) {
     (*this)(key, value, std::forward<Extra>(extra)...);
@@ -145,6 +178,9 @@ class ConfigWriter {
 
   void begin_map(const char* key);
   void end_map();
+  void begin_list(const char* key);
+  void begin_list_item();
+  void end_list();
   std::string str() const;
 
  private:
