@@ -1,0 +1,80 @@
+#pragma once
+// EuRoC MAV / ASL sequences, and TUM-VI in the same layout:
+//   mav0/cam0/data.csv    "t_ns,filename" with images under cam0/data/ (8-bit gray PNG)
+//   mav0/cam1/...         right camera; frames pair with cam0 by identical stamps
+//   mav0/<sensor>/sensor.yaml   calibration (OpenCV FileStorage YAML): T_BS (sensor in body frame),
+//                         resolution, intrinsics [fu fv cu cv], radial-tangential distortion, rate_hz;
+//                         for imu0 the noise densities and random walks
+//   mav0/imu0/data.csv    "t_ns,wx,wy,wz,ax,ay,az" (rad/s, m/s^2)
+//   mav0/state_groundtruth_estimate0/data.csv (EuRoC) or mav0/mocap0/data.csv (TUM-VI): body poses
+// Every frame carries the IMU samples with t in (previous frame, this frame].
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <Eigen/Geometry>
+
+#include "fleetslam/core/dataset.hpp"
+
+namespace fleetslam::core {
+
+// One camera's sensor.yaml.
+struct EurocCameraCalibration {
+  PinholeCamera camera;
+  Eigen::Isometry3d T_body_cam = Eigen::Isometry3d::Identity();  // T_BS
+  double rate_hz = 20.0;
+};
+
+// One IMU's sensor.yaml.
+struct EurocImuCalibration {
+  ImuNoise noise;
+  Eigen::Isometry3d T_body_imu = Eigen::Isometry3d::Identity();  // T_BS
+};
+
+// Readers of sensor.yaml. Unsupported models (camera_model other than pinhole, distortion_model
+// other than radial-tangential, e.g. TUM-VI's equidistant) are InputErrors that say to pass a rig.
+EurocCameraCalibration read_euroc_camera_yaml(const std::filesystem::path& file);
+EurocImuCalibration read_euroc_imu_yaml(const std::filesystem::path& file);
+
+// The rig of a mav0 folder from its sensor.yaml files (cam1 and imu0 when present and asked for):
+// T_body_cam0 is cam0 in the IMU frame, T_cam0_cam1 = T_B_cam0^-1 * T_B_cam1, bf = baseline * fx.
+SensorRig read_euroc_rig(const std::filesystem::path& mav0, bool stereo, bool inertial);
+
+// The mav0 folder of a sequence: root/mav0, or root itself when it holds cam0/. InputError otherwise.
+std::filesystem::path find_mav0(const std::filesystem::path& root);
+
+// Opens a EuRoC or TUM-VI sequence (`format` only changes the wording and the ground-truth folder
+// searched first). Calibration: config.rig, else the sensor.yaml files.
+std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, DatasetFormat format,
+                                        const DatasetConfig& config, Logger logger);
+
+// Writes frames as a EuRoC mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
+// data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and
+// state_groundtruth_estimate0/data.csv (body poses, body = IMU frame) when frames carry poses.
+// Colour images are converted to gray; depth maps are dropped (with one warning).
+class EurocWriter final : public FrameSink {
+ public:
+  EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger);
+  ~EurocWriter() override;
+
+  void write(const SensorFrame& frame) override;
+  void close() override;
+  std::size_t frames_written() const override { return frames_; }
+
+ private:
+  struct Files;
+  void write_images(const SensorFrame& frame);
+  std::filesystem::path mav0_;
+  SensorRig rig_;
+  Logger logger_;
+  std::unique_ptr<Files> files_;
+  std::size_t frames_ = 0;
+  TimeNs last_t_ns_ = 0;
+  bool warned_colour_ = false;
+  bool warned_depth_ = false;
+  bool warned_imu_ = false;
+  bool closed_ = false;
+};
+
+}  // namespace fleetslam::core

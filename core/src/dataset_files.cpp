@@ -1,0 +1,96 @@
+// Calibration files read through cv::FileStorage, and the file-system side of the writers.
+
+#include <algorithm>
+#include <cmath>
+#include <system_error>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "dataset_internal.hpp"
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::core::dataset_detail {
+
+// The EuRoC sensor.yaml and ORB-SLAM settings files start with "%YAML:1.0", which yaml-cpp rejects;
+// OpenCV's FileStorage reads them. Its exceptions become InputErrors naming the file.
+SettingsFile::SettingsFile(const std::filesystem::path& file) : file_(file.string()) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) throw InputError(file_, "missing calibration file");
+  try {
+    storage_.open(file_, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw InputError(file_, "malformed calibration file: " + e.err);
+  }
+  if (!storage_.isOpened()) throw InputError(file_, "cannot read the calibration file");
+}
+
+cv::FileNode SettingsFile::node(const std::string& key) const {
+  try {
+    return storage_[key];
+  } catch (const cv::Exception& e) {
+    throw InputError(where(key), e.err);
+  }
+}
+
+bool SettingsFile::has(const std::string& key) const { return !node(key).empty(); }
+
+double SettingsFile::number(const std::string& key) const {
+  const cv::FileNode n = node(key);
+  if (n.empty()) throw InputError(where(key), "missing key");
+  if (!n.isReal() && !n.isInt()) throw InputError(where(key), "expected a number");
+  const double value = n.real();
+  if (!std::isfinite(value)) throw InputError(where(key), "not a finite number");
+  return value;
+}
+
+std::string SettingsFile::text(const std::string& key) const {
+  const cv::FileNode n = node(key);
+  if (n.empty()) throw InputError(where(key), "missing key");
+  if (!n.isString()) throw InputError(where(key), "expected text");
+  return n.string();
+}
+
+std::vector<double> SettingsFile::numbers(const std::string& key, std::initializer_list<std::size_t> sizes,
+                                          const std::string& child) const {
+  const std::string name = child.empty() ? key : key + "." + child;
+  cv::FileNode n = node(key);
+  if (!child.empty() && n.isMap()) n = n[child];
+  if (n.empty()) throw InputError(where(name), "missing key");
+  if (!n.isSeq()) throw InputError(where(name), "expected a list of numbers");
+  std::vector<double> values;
+  for (const cv::FileNode& item : n) {
+    if (!item.isReal() && !item.isInt()) throw InputError(where(name), "expected a list of numbers");
+    values.push_back(item.real());
+    if (!std::isfinite(values.back())) throw InputError(where(name), "holds a value that is not finite");
+  }
+  if (std::find(sizes.begin(), sizes.end(), values.size()) == sizes.end()) {
+    throw InputError(where(name), "has " + std::to_string(values.size()) + " numbers, expected " +
+                                      std::to_string(*sizes.begin()));
+  }
+  return values;
+}
+
+void create_output_folder(const std::filesystem::path& root) {
+  std::error_code ec;
+  if (std::filesystem::exists(root, ec)) {
+    if (!std::filesystem::is_directory(root, ec)) throw InputError(root.string(), "exists and is not a folder");
+    if (!std::filesystem::is_empty(root, ec)) {
+      throw InputError(root.string(), "output folder exists and is not empty (refusing to mix sequences)");
+    }
+  }
+  std::filesystem::create_directories(root, ec);
+  if (ec) throw InputError(root.string(), "cannot create the folder: " + ec.message());
+}
+
+void write_image(const std::filesystem::path& file, const cv::Mat& image) {
+  bool written = false;
+  try {
+    written = cv::imwrite(file.string(), image);
+  } catch (const cv::Exception& e) {
+    throw InputError(file.string(), "cannot write the image: " + e.err);
+  }
+  if (!written) throw InputError(file.string(), "cannot write the image");
+}
+
+}  // namespace fleetslam::core::dataset_detail

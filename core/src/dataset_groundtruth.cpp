@@ -1,0 +1,51 @@
+// Ground truth of recorded sequences: one pose per frame, looked up in a trajectory file.
+
+#include <algorithm>
+#include <cmath>
+#include <system_error>
+
+#include "dataset_internal.hpp"
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::core::dataset_detail {
+
+Eigen::Isometry3d interpolate_pose(const Eigen::Isometry3d& T_a, const Eigen::Isometry3d& T_b, double s) {
+  const Eigen::Quaterniond q_a(T_a.linear());
+  const Eigen::Quaterniond q_b(T_b.linear());
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = q_a.slerp(s, q_b).normalized().toRotationMatrix();
+  T.translation() = (1.0 - s) * T_a.translation() + s * T_b.translation();
+  return T;
+}
+
+std::optional<Eigen::Isometry3d> pose_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns) {
+  const auto after = std::lower_bound(trajectory.begin(), trajectory.end(), t_ns,
+                                      [](const StampedPose& p, TimeNs t) { return p.t_ns < t; });
+  if (after != trajectory.end() && after->t_ns == t_ns) return after->T_world_body;
+  if (after == trajectory.begin() || after == trajectory.end()) return std::nullopt;
+  const auto before = std::prev(after);
+  // Both neighbours must be close: interpolating across a motion-capture drop-out would invent motion.
+  if (t_ns - before->t_ns > max_gap_ns || after->t_ns - t_ns > max_gap_ns) return std::nullopt;
+  const double s = static_cast<double>(t_ns - before->t_ns) / static_cast<double>(after->t_ns - before->t_ns);
+  return interpolate_pose(before->T_world_body, after->T_world_body, s);
+}
+
+void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
+                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) throw InputError(file.string(), "missing ground-truth file");
+  // Real ground-truth files repeat stamps now and then; the TUM tools keep the last pose of a stamp.
+  TrajectoryReadOptions options;
+  options.duplicate_stamps = DuplicateStamps::kKeepLast;
+  const Trajectory trajectory = read_trajectory_file(file, options).trajectory;
+  const TimeNs max_gap_ns = seconds_to_ns(config.max_groundtruth_gap_s);
+  for (FrameEntry& entry : sequence.entries) {
+    std::optional<Eigen::Isometry3d> T_world_body = pose_at(trajectory, entry.t_ns, max_gap_ns);
+    if (!T_world_body) continue;
+    entry.T_world_cam_gt = T_body_cam ? *T_world_body * *T_body_cam : *T_world_body;
+  }
+  sequence.info.groundtruth_file = file.string();
+  sequence.info.groundtruth_poses = trajectory.size();
+}
+
+}  // namespace fleetslam::core::dataset_detail

@@ -1,0 +1,138 @@
+#pragma once
+// Pieces shared by the dataset readers and writers (private to fleetslam_core).
+
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core/persistence.hpp>
+
+#include "fleetslam/core/dataset.hpp"
+#include "fleetslam/core/trajectory.hpp"
+
+namespace fleetslam::core::dataset_detail {
+
+// ---- text lists ---------------------------------------------------------------------------------
+
+// One data line of a text list: its 1-based line number and its fields (split at commas when the line
+// has one, else at blanks). Blank lines and '#' comments are not rows.
+struct TextRow {
+  std::size_t line = 0;
+  std::vector<std::string> fields;
+};
+
+// Reads every row of a text file. Throws InputError naming the file when it is absent or unreadable;
+// `purpose` says what the file is for ("RGB image list").
+std::vector<TextRow> read_text_rows(const std::filesystem::path& file, const std::string& purpose);
+
+// Finite number or InputError at file:line naming the column.
+double parse_number(const std::string& text, const std::string& where, const char* column);
+
+// One row of an image list: stamp, image file, and the list row it came from.
+struct ImageRow {
+  TimeNs t_ns = 0;
+  std::filesystem::path image;
+  std::string where;  // "list file:line"
+};
+
+enum class StampUnit { kSeconds, kNanoseconds };
+
+// Reads "stamp image" rows (TUM rgb.txt / depth.txt: seconds; EuRoC data.csv: nanoseconds); image
+// names are resolved against image_folder. Stamps must increase strictly.
+std::vector<ImageRow> read_image_list(const std::filesystem::path& list_file, StampUnit unit,
+                                      const std::filesystem::path& image_folder, const std::string& purpose);
+
+// Drops rows whose image file is absent. Absent images after the last present one are a truncated
+// recording: skipped with a warning. Others are an InputError unless `skip_absent` (then warned).
+// Every dropped row is appended to `skipped`.
+std::vector<ImageRow> drop_absent_images(std::vector<ImageRow> rows, bool skip_absent,
+                                         std::vector<SkippedRow>& skipped, const Logger& logger);
+
+// ---- poses ----------------------------------------------------------------------------------------
+
+// Translation linear, rotation slerp, s in [0, 1].
+Eigen::Isometry3d interpolate_pose(const Eigen::Isometry3d& T_a, const Eigen::Isometry3d& T_b, double s);
+
+// Pose at t: an exact stamp, or interpolated between the poses on both sides when each is within
+// max_gap_ns of t; nullopt otherwise. The trajectory is sorted by time.
+std::optional<Eigen::Isometry3d> pose_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns);
+
+// ---- frames ---------------------------------------------------------------------------------------
+
+// An image a frame needs: its file and the list row naming it (for messages).
+struct ImageRef {
+  std::filesystem::path path;
+  std::string where;
+  bool empty() const { return path.empty(); }
+};
+
+// One frame of a sequence before its images are decoded.
+struct FrameEntry {
+  TimeNs t_ns = 0;
+  ImageRef image;
+  ImageRef right;
+  ImageRef depth;
+  std::optional<Eigen::Isometry3d> T_world_cam_gt;
+};
+
+enum class ImageKind { kColour, kGray };
+
+// A sequence indexed by a reader: everything but the pixels.
+struct RecordedSequence {
+  SensorRig rig;
+  DatasetInfo info;
+  std::vector<FrameEntry> entries;  // every usable frame, before selection, in time order
+  std::vector<ImuSample> imu;       // every sample of the IMU file, in time order
+  ImageKind image_kind = ImageKind::kColour;
+};
+
+// Ground truth for the entries: reads `file` and gives each entry the pose at its stamp, composed with
+// T_body_cam when the file holds body poses. Fills the info fields about ground truth.
+void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
+                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config);
+
+// Median spacing of sorted stamps in ns (0 for fewer than two).
+TimeNs median_interval_ns(const std::vector<TimeNs>& stamps);
+
+// Builds the FrameSource over an indexed sequence (applies the selection of `config`).
+std::unique_ptr<FrameSource> make_recorded_source(RecordedSequence sequence, const DatasetConfig& config,
+                                                  Logger logger);
+
+// ---- calibration files (OpenCV FileStorage YAML, "%YAML:1.0") ---------------------------------------
+
+// Read access to one FileStorage file; every failure is an InputError "file:key: why".
+class SettingsFile {
+ public:
+  explicit SettingsFile(const std::filesystem::path& file);
+  bool has(const std::string& key) const;
+  double number(const std::string& key) const;
+  std::string text(const std::string& key) const;
+  // A sequence of numbers, optionally nested ("T_BS" then "data"); `sizes` lists the allowed lengths.
+  std::vector<double> numbers(const std::string& key, std::initializer_list<std::size_t> sizes,
+                              const std::string& child = "") const;
+  std::string where(const std::string& key) const { return file_ + ":" + key; }
+  const std::string& file() const { return file_; }
+
+ private:
+  cv::FileNode node(const std::string& key) const;
+  std::string file_;
+  cv::FileStorage storage_;
+};
+
+// Writes a double so that reading it back gives the same value.
+std::string exact(double value);
+
+// ---- writing --------------------------------------------------------------------------------------
+
+// Creates `root` (and parents); refuses an existing folder that is not empty.
+void create_output_folder(const std::filesystem::path& root);
+// Writes an image; InputError naming the file when OpenCV cannot.
+void write_image(const std::filesystem::path& file, const cv::Mat& image);
+
+Logger or_null(Logger logger);
+
+}  // namespace fleetslam::core::dataset_detail

@@ -1,0 +1,175 @@
+// EuRoC writer: a mav0 folder with cameras, IMU, calibration and body ground truth.
+
+#include <fstream>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <spdlog/logger.h>
+
+#include "dataset_internal.hpp"
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/euroc.hpp"
+
+namespace fleetslam::core {
+
+using namespace dataset_detail;
+
+namespace {
+
+std::string matrix_row_major(const Eigen::Isometry3d& T) {
+  std::string text;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      if (!text.empty()) text += (c == 0 ? ",\n         " : ", ");
+      text += exact(T.matrix()(r, c));
+    }
+  }
+  return text;
+}
+
+void write_text(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file);
+  out << text;
+  if (!out) throw InputError(file.string(), "cannot write the file");
+}
+
+void write_camera_yaml(const std::filesystem::path& file, const PinholeCamera& camera,
+                       const Eigen::Isometry3d& T_body_cam, double rate_hz) {
+  const RadTan& d = camera.distortion();
+  std::string coefficients = exact(d.k1) + ", " + exact(d.k2) + ", " + exact(d.p1) + ", " + exact(d.p2);
+  if (d.k3 != 0.0) coefficients += ", " + exact(d.k3);
+  write_text(file, "%YAML:1.0\nsensor_type: camera\ncomment: written by fleetslam\n\nT_BS:\n  cols: 4\n  rows: 4\n"
+                   "  data: [" + matrix_row_major(T_body_cam) + "]\n\nrate_hz: " + exact(rate_hz) +
+                       "\nresolution: [" + std::to_string(camera.width()) + ", " + std::to_string(camera.height()) +
+                       "]\ncamera_model: pinhole\nintrinsics: [" + exact(camera.fx()) + ", " + exact(camera.fy()) +
+                       ", " + exact(camera.cx()) + ", " + exact(camera.cy()) +
+                       "]\ndistortion_model: radial-tangential\ndistortion_coefficients: [" + coefficients + "]\n");
+}
+
+void write_imu_yaml(const std::filesystem::path& file, const ImuNoise& noise) {
+  write_text(file, "%YAML:1.0\nsensor_type: imu\ncomment: written by fleetslam\n\nT_BS:\n  cols: 4\n  rows: 4\n"
+                   "  data: [" + matrix_row_major(Eigen::Isometry3d::Identity()) + "]\nrate_hz: " +
+                       exact(noise.rate_hz) + "\n\ngyroscope_noise_density: " + exact(noise.gyro_noise_density) +
+                       "\ngyroscope_random_walk: " + exact(noise.gyro_random_walk) +
+                       "\naccelerometer_noise_density: " + exact(noise.accel_noise_density) +
+                       "\naccelerometer_random_walk: " + exact(noise.accel_random_walk) + "\n");
+}
+
+std::string frame_name(const SensorFrame& frame) {
+  return "frame " + std::to_string(frame.sequence) + " (t " + std::to_string(frame.t_ns) + " ns)";
+}
+
+}  // namespace
+
+struct EurocWriter::Files {
+  std::ofstream cam0;
+  std::ofstream cam1;
+  std::ofstream imu;
+  TimeNs last_imu_t_ns = 0;
+  bool any_imu = false;
+  Trajectory body_poses;
+};
+
+EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
+    : mav0_(root / "mav0"), rig_(rig), logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
+  create_output_folder(root);
+  const Eigen::Isometry3d T_body_cam0 = rig_.T_body_cam0.value_or(Eigen::Isometry3d::Identity());
+  const char* kImageHeader = "#timestamp [ns],filename\n";
+  std::filesystem::create_directories(mav0_ / "cam0" / "data");
+  write_camera_yaml(mav0_ / "cam0" / "sensor.yaml", rig_.cam0, T_body_cam0, rig_.fps);
+  files_->cam0.open(mav0_ / "cam0" / "data.csv");
+  files_->cam0 << kImageHeader;
+  if (rig_.cam1) {
+    std::filesystem::create_directories(mav0_ / "cam1" / "data");
+    write_camera_yaml(mav0_ / "cam1" / "sensor.yaml", *rig_.cam1, T_body_cam0 * rig_.T_cam0_cam1, rig_.fps);
+    files_->cam1.open(mav0_ / "cam1" / "data.csv");
+    files_->cam1 << kImageHeader;
+  }
+  if (rig_.imu) {
+    std::filesystem::create_directories(mav0_ / "imu0");
+    write_imu_yaml(mav0_ / "imu0" / "sensor.yaml", *rig_.imu);
+    files_->imu.open(mav0_ / "imu0" / "data.csv");
+    files_->imu << "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+                   "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n";
+  }
+  write_text(mav0_ / "body.yaml", "%YAML:1.0\ncomment: written by fleetslam\n");
+  if (!files_->cam0 || (rig_.cam1 && !files_->cam1) || (rig_.imu && !files_->imu)) {
+    throw InputError(mav0_.string(), "cannot write the lists");
+  }
+}
+
+EurocWriter::~EurocWriter() {
+  try {
+    close();
+  } catch (const std::exception& e) {
+    logger_->error("{}: closing the sequence failed: {}", mav0_.string(), e.what());
+  }
+}
+
+void EurocWriter::write_images(const SensorFrame& frame) {
+  const auto gray = [&](const cv::Mat& image, const PinholeCamera& camera, const char* which) {
+    if (image.cols != camera.width() || image.rows != camera.height()) {
+      throw InputError(frame_name(frame), std::string(which) + " image size differs from the rig's camera");
+    }
+    if (image.type() == CV_8UC1) return image;
+    if (image.type() != CV_8UC3) throw InputError(frame_name(frame), "image must be 8-bit colour or gray");
+    if (!warned_colour_) logger_->warn("{}: colour images converted to gray (EuRoC layout)", mav0_.string());
+    warned_colour_ = true;
+    cv::Mat converted;
+    cv::cvtColor(image, converted, cv::COLOR_BGR2GRAY);
+    return converted;
+  };
+  const std::string name = std::to_string(frame.t_ns) + ".png";
+  write_image(mav0_ / "cam0" / "data" / name, gray(frame.image, rig_.cam0, "left"));
+  files_->cam0 << frame.t_ns << ',' << name << '\n';
+  if (rig_.cam1) {
+    if (!frame.is_stereo()) throw InputError(frame_name(frame), "has no right image but the rig is stereo");
+    write_image(mav0_ / "cam1" / "data" / name, gray(frame.right, *rig_.cam1, "right"));
+    files_->cam1 << frame.t_ns << ',' << name << '\n';
+  }
+}
+
+void EurocWriter::write(const SensorFrame& frame) {
+  FLEETSLAM_CHECK(!closed_, "write() after close()");
+  if (frame.image.empty()) throw InputError(frame_name(frame), "has no image");
+  if (frames_ > 0 && frame.t_ns <= last_t_ns_) throw InputError(frame_name(frame), "stamp does not increase");
+  write_images(frame);
+  if (frame.has_depth() && !warned_depth_) logger_->warn("{}: depth maps dropped (EuRoC layout)", mav0_.string());
+  warned_depth_ = warned_depth_ || frame.has_depth();
+  if (!rig_.imu && !frame.imu.empty() && !warned_imu_) {
+    logger_->warn("{}: IMU samples dropped: the rig has no IMU", mav0_.string());
+    warned_imu_ = true;
+  }
+  if (rig_.imu) {
+    for (const ImuSample& s : frame.imu) {
+      if (files_->any_imu && s.t_ns <= files_->last_imu_t_ns) throw InputError(frame_name(frame), "IMU stamps do not increase");
+      files_->imu << s.t_ns << ',' << exact(s.gyro_radps.x()) << ',' << exact(s.gyro_radps.y()) << ','
+                  << exact(s.gyro_radps.z()) << ',' << exact(s.accel_mps2.x()) << ',' << exact(s.accel_mps2.y())
+                  << ',' << exact(s.accel_mps2.z()) << '\n';
+      files_->last_imu_t_ns = s.t_ns;
+      files_->any_imu = true;
+    }
+  }
+  if (frame.T_world_cam_gt) {
+    const Eigen::Isometry3d T_body_cam0 = rig_.T_body_cam0.value_or(Eigen::Isometry3d::Identity());
+    files_->body_poses.push_back({frame.t_ns, *frame.T_world_cam_gt * T_body_cam0.inverse()});
+  }
+  last_t_ns_ = frame.t_ns;
+  ++frames_;
+}
+
+void EurocWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  for (std::ofstream* out : {&files_->cam0, &files_->cam1, &files_->imu}) {
+    if (out->is_open()) out->close();
+    if (out->fail()) throw InputError(mav0_.string(), "cannot write the lists");
+  }
+  if (!files_->body_poses.empty()) {
+    std::filesystem::create_directories(mav0_ / "state_groundtruth_estimate0");
+    write_trajectory(mav0_ / "state_groundtruth_estimate0" / "data.csv", files_->body_poses, TrajectoryFormat::kEuroc);
+  }
+  logger_->info("{}: wrote {} {} frames", mav0_.string(), frames_, rig_.cam1 ? "stereo" : "monocular");
+}
+
+}  // namespace fleetslam::core

@@ -1,0 +1,356 @@
+// EuRoC / TUM-VI reader and writer on synthetic sequences written by the writer (seeded content),
+// and every kind of bad input the reader must name by file and line (or file and key).
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "dataset_test_util.hpp"
+#include "fleetslam/core/dataset.hpp"
+#include "fleetslam/core/euroc.hpp"
+#include "fleetslam/core/trajectory.hpp"
+
+namespace fleetslam::core {
+namespace {
+
+using test::expect_input_error;
+using test::TempDir;
+
+constexpr TimeNs kT0 = 1403715273262142976;
+constexpr TimeNs kPeriod = 50000000;    // 20 Hz cameras
+constexpr TimeNs kImuPeriod = 5000000;  // 200 Hz IMU
+constexpr int kFrames = 12;
+constexpr int kWidth = 48;
+constexpr int kHeight = 32;
+
+SensorRig stereo_rig() {
+  std::mt19937 rng(11);
+  SensorRig rig;
+  rig.mode = SensorMode::kStereoInertial;
+  rig.cam0 = PinholeCamera(kWidth, kHeight, 40.0, 41.0, 23.5, 15.5, RadTan{-0.28, 0.07, 0.0002, 1.7e-5, 0.0});
+  rig.cam1 = PinholeCamera(kWidth, kHeight, 40.5, 40.2, 24.0, 16.0, RadTan{-0.27, 0.075, -1e-4, 0.0, 0.001});
+  rig.T_body_cam0 = test::random_pose(rng);
+  rig.T_cam0_cam1 = test::random_pose(rng);
+  rig.T_cam0_cam1.translation() = Eigen::Vector3d(0.11, 0.001, -0.002);
+  rig.bf = 0.11 * 40.0;
+  rig.fps = 20.0;
+  ImuNoise noise;
+  noise.gyro_noise_density = 1.5e-4;
+  noise.accel_random_walk = 2.5e-3;
+  rig.imu = noise;
+  return rig;
+}
+
+SensorRig mono_rig() {
+  SensorRig rig = stereo_rig();
+  rig.mode = SensorMode::kMonocular;
+  rig.cam1.reset();
+  rig.imu.reset();
+  return rig;
+}
+
+// Gray stereo frames, ten IMU samples in (previous frame, frame] each, poses on all frames but 4.
+std::vector<SensorFrame> make_frames(std::uint64_t seed, bool stereo = true, bool imu = true) {
+  std::mt19937 rng(static_cast<std::mt19937::result_type>(seed));
+  std::normal_distribution<double> value(0.0, 1.0);
+  std::vector<SensorFrame> frames;
+  for (int i = 0; i < kFrames; ++i) {
+    SensorFrame frame;
+    frame.sequence = i;
+    frame.t_ns = kT0 + i * kPeriod;
+    frame.image = test::random_image(kWidth, kHeight, CV_8UC1, seed * 100 + static_cast<std::uint64_t>(i));
+    if (stereo) frame.right = test::random_image(kWidth, kHeight, CV_8UC1, seed * 100 + 50 + static_cast<std::uint64_t>(i));
+    for (TimeNs t = frame.t_ns - kPeriod + kImuPeriod; imu && t <= frame.t_ns; t += kImuPeriod) {
+      ImuSample sample;
+      sample.t_ns = t;
+      sample.gyro_radps = {value(rng), value(rng), value(rng)};
+      sample.accel_mps2 = {value(rng), value(rng), 9.81 + value(rng)};
+      frame.imu.push_back(sample);
+    }
+    if (i != 4) frame.T_world_cam_gt = test::random_pose(rng);
+    frames.push_back(frame);
+  }
+  return frames;
+}
+
+void write_sequence(const std::filesystem::path& root, const std::vector<SensorFrame>& frames,
+                    const SensorRig& rig = stereo_rig()) {
+  EurocWriter writer(root, rig, null_logger());
+  for (const SensorFrame& frame : frames) writer.write(frame);
+  writer.close();
+}
+
+std::vector<SensorFrame> read_all(FrameSource& source) {
+  std::vector<SensorFrame> frames;
+  while (auto frame = source.next()) frames.push_back(std::move(*frame));
+  return frames;
+}
+
+std::unique_ptr<FrameSource> open(const std::filesystem::path& root, const DatasetConfig& config = {}) {
+  return open_dataset(root, std::nullopt, config, null_logger());
+}
+
+void expect_same_camera(const PinholeCamera& a, const PinholeCamera& b) {
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_EQ(a.K(), b.K());
+  EXPECT_EQ(a.distortion().k1, b.distortion().k1);
+  EXPECT_EQ(a.distortion().p2, b.distortion().p2);
+  EXPECT_EQ(a.distortion().k3, b.distortion().k3);
+}
+
+TEST(Euroc, StereoInertialRoundTripKeepsEverything) {
+  TempDir dir;
+  const SensorRig rig = stereo_rig();
+  const std::vector<SensorFrame> written = make_frames(3);
+  write_sequence(dir.path(), written, rig);
+  EXPECT_EQ(detect_dataset_format(dir.path()), DatasetFormat::kEuroc);
+  const auto source = open(dir.path());
+  const SensorRig& read_rig = source->rig();
+  EXPECT_EQ(read_rig.mode, SensorMode::kStereoInertial);
+  expect_same_camera(read_rig.cam0, rig.cam0);
+  ASSERT_TRUE(read_rig.cam1.has_value());
+  expect_same_camera(*read_rig.cam1, *rig.cam1);
+  ASSERT_TRUE(read_rig.T_body_cam0.has_value());
+  EXPECT_TRUE(read_rig.T_body_cam0->isApprox(*rig.T_body_cam0, 1e-12));
+  EXPECT_TRUE(read_rig.T_cam0_cam1.isApprox(rig.T_cam0_cam1, 1e-12));
+  EXPECT_NEAR(read_rig.bf, rig.T_cam0_cam1.translation().norm() * 40.0, 1e-12);
+  ASSERT_TRUE(read_rig.imu.has_value());
+  EXPECT_EQ(read_rig.imu->gyro_noise_density, 1.5e-4);
+  EXPECT_EQ(read_rig.imu->accel_random_walk, 2.5e-3);
+  EXPECT_DOUBLE_EQ(read_rig.fps, 20.0);
+  EXPECT_EQ(source->info().frames_with_groundtruth, written.size() - 1);
+  EXPECT_NEAR(source->info().imu_rate_hz, 200.0, 1e-9);
+
+  const std::vector<SensorFrame> read = read_all(*source);
+  ASSERT_EQ(read.size(), written.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(read[i].t_ns, written[i].t_ns);
+    EXPECT_TRUE(test::same_image(read[i].image, written[i].image));
+    EXPECT_TRUE(test::same_image(read[i].right, written[i].right));
+    EXPECT_FALSE(read[i].has_depth());
+    ASSERT_EQ(read[i].imu.size(), 10u);  // the samples in (previous frame, frame], the first frame included
+    for (std::size_t k = 0; k < read[i].imu.size(); ++k) {
+      EXPECT_EQ(read[i].imu[k].t_ns, written[i].imu[k].t_ns);
+      EXPECT_EQ(read[i].imu[k].gyro_radps, written[i].imu[k].gyro_radps);
+      EXPECT_EQ(read[i].imu[k].accel_mps2, written[i].imu[k].accel_mps2);
+    }
+    ASSERT_EQ(read[i].T_world_cam_gt.has_value(), written[i].T_world_cam_gt.has_value());
+    if (read[i].T_world_cam_gt) {
+      EXPECT_TRUE(read[i].T_world_cam_gt->isApprox(*written[i].T_world_cam_gt, 1e-10));
+    }
+  }
+}
+
+TEST(Euroc, MonocularWithoutImuAndStereoSwitchedOff) {
+  TempDir dir;
+  write_sequence(dir / "mono", make_frames(4, false, false), mono_rig());
+  EXPECT_FALSE(std::filesystem::exists(dir / "mono" / "mav0" / "cam1"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "mono" / "mav0" / "imu0"));
+  auto source = open(dir / "mono");
+  EXPECT_EQ(source->rig().mode, SensorMode::kMonocular);
+  auto frames = read_all(*source);
+  ASSERT_EQ(frames.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_FALSE(frames[0].is_stereo());
+  EXPECT_TRUE(frames[0].imu.empty());
+
+  write_sequence(dir / "stereo", make_frames(4));
+  DatasetConfig config;
+  config.stereo = false;
+  config.load_imu = false;
+  source = open(dir / "stereo" / "mav0", config);  // the mav0 folder itself opens too
+  EXPECT_EQ(source->rig().mode, SensorMode::kMonocular);
+  frames = read_all(*source);
+  EXPECT_FALSE(frames[3].is_stereo());
+  EXPECT_TRUE(frames[3].imu.empty());
+}
+
+TEST(Euroc, ColourFramesAreWrittenGrayAndStereoRigsNeedRightImages) {
+  TempDir dir;
+  std::vector<SensorFrame> frames = make_frames(5, false, false);
+  for (SensorFrame& frame : frames) frame.image = test::random_image(kWidth, kHeight, CV_8UC3, 9);
+  write_sequence(dir / "gray", frames, mono_rig());
+  const auto frame = open(dir / "gray")->next();
+  ASSERT_TRUE(frame.has_value());
+  EXPECT_EQ(frame->image.type(), CV_8UC1);
+  expect_input_error([&] { write_sequence(dir / "stereo", make_frames(5, false)); }, {"frame 0", "no right image"});
+  frames = make_frames(5);
+  frames[2].image = cv::Mat(10, 10, CV_8UC1);
+  expect_input_error([&] { write_sequence(dir / "size", frames); }, {"frame 2", "size"});
+}
+
+TEST(Euroc, CamOneRowsPastTheEndAndUnpairedRowsAreSkipped) {
+  TempDir dir;
+  write_sequence(dir.path(), make_frames(6));
+  const auto cam1_csv = dir / "mav0" / "cam1" / "data.csv";
+  {
+    std::ofstream out(cam1_csv, std::ios::app);
+    for (int i = kFrames; i < kFrames + 4; ++i) out << kT0 + i * kPeriod << ',' << kT0 + i * kPeriod << ".png\n";
+  }
+  auto source = open(dir.path());
+  EXPECT_EQ(source->size(), static_cast<std::size_t>(kFrames));
+  ASSERT_EQ(source->info().skipped.size(), 4u);
+  EXPECT_NE(source->info().skipped[0].where.find("cam1/data.csv:" + std::to_string(kFrames + 2)), std::string::npos);
+  EXPECT_NE(source->info().skipped[0].why.find("after the last image present"), std::string::npos);
+  EXPECT_EQ(read_all(*source).size(), static_cast<std::size_t>(kFrames));
+
+  // A cam0 row whose partner is not listed: the frame is skipped, its IMU samples go to the next one.
+  test::replace_line(cam1_csv, 2 + 5, "# removed");
+  source = open(dir.path());
+  EXPECT_EQ(source->size(), static_cast<std::size_t>(kFrames - 1));
+  EXPECT_NE(source->info().skipped.back().where.find("cam0/data.csv:7"), std::string::npos);
+  const auto frames = read_all(*source);
+  EXPECT_EQ(frames[5].imu.size(), 20u);
+}
+
+TEST(Euroc, GroundTruthFromAGivenFileOfCameraOrBodyPoses) {
+  TempDir dir;
+  const std::vector<SensorFrame> written = make_frames(7);
+  write_sequence(dir / "seq", written);
+  Trajectory camera_poses;
+  for (const SensorFrame& frame : written) {
+    if (frame.T_world_cam_gt) camera_poses.push_back({frame.t_ns, *frame.T_world_cam_gt});
+  }
+  write_trajectory(dir / "cam_gt.csv", camera_poses, TrajectoryFormat::kEuroc);
+  DatasetConfig config;
+  config.groundtruth_file = (dir / "cam_gt.csv").string();
+  config.load_images = false;
+  auto frames = read_all(*open(dir / "seq", config));
+  ASSERT_TRUE(frames[0].T_world_cam_gt.has_value());
+  EXPECT_TRUE(frames[0].T_world_cam_gt->isApprox(*written[0].T_world_cam_gt, 1e-12));
+  // The dataset's own body poses through the explicit option give the same camera poses.
+  config.groundtruth_file = (dir / "seq" / "mav0" / "state_groundtruth_estimate0" / "data.csv").string();
+  config.groundtruth_in_body_frame = true;
+  frames = read_all(*open(dir / "seq", config));
+  EXPECT_TRUE(frames[1].T_world_cam_gt->isApprox(*written[1].T_world_cam_gt, 1e-10));
+  config.groundtruth_file = (dir / "absent.txt").string();
+  expect_input_error([&] { open(dir / "seq", config); }, {"absent.txt", "missing ground-truth file"});
+}
+
+TEST(Euroc, TumViLayoutNeedsAGivenRigForEquidistantCameras) {
+  TempDir dir;
+  const std::vector<SensorFrame> written = make_frames(8);
+  write_sequence(dir.path(), written);
+  const auto mav0 = dir / "mav0";
+  std::filesystem::create_directories(mav0 / "mocap0");
+  std::filesystem::rename(mav0 / "state_groundtruth_estimate0" / "data.csv", mav0 / "mocap0" / "data.csv");
+  EXPECT_EQ(detect_dataset_format(dir.path()), DatasetFormat::kTumVi);
+  auto source = open(dir.path());
+  EXPECT_EQ(source->info().format, DatasetFormat::kTumVi);
+  EXPECT_NE(source->info().groundtruth_file.find("mocap0"), std::string::npos);
+  EXPECT_EQ(source->info().frames_with_groundtruth, written.size() - 1);
+
+  const std::string yaml = test::read_file(mav0 / "cam0" / "sensor.yaml");
+  const std::string equidistant = std::string(yaml).replace(yaml.find("radial-tangential"), 17, "equidistant");
+  test::write_file(mav0 / "cam0" / "sensor.yaml", equidistant);
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:distortion_model", "equidistant", "rig"});
+  DatasetConfig config;
+  config.rig = stereo_rig();
+  source = open(dir.path(), config);
+  EXPECT_EQ(read_all(*source).size(), written.size());
+  std::filesystem::remove(mav0 / "cam0" / "sensor.yaml");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml", "missing camera calibration", "rig"});
+}
+
+// ---- bad input --------------------------------------------------------------------------------------
+
+class EurocBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override { write_sequence(dir.path(), make_frames(13)); }
+  std::filesystem::path mav0() const { return dir / "mav0"; }
+  std::filesystem::path cam0_csv() const { return mav0() / "cam0" / "data.csv"; }
+  std::filesystem::path cam0_png(int i) const {
+    return mav0() / "cam0" / "data" / (std::to_string(kT0 + i * kPeriod) + ".png");
+  }
+  std::string cam0_line(int i) const { return "cam0/data.csv:" + std::to_string(2 + i); }
+  std::filesystem::path cam0_yaml() const { return mav0() / "cam0" / "sensor.yaml"; }
+  void edit_yaml(const std::string& from, const std::string& to) const {
+    std::string yaml = test::read_file(cam0_yaml());
+    ASSERT_NE(yaml.find(from), std::string::npos);
+    test::write_file(cam0_yaml(), yaml.replace(yaml.find(from), from.size(), to));
+  }
+  TempDir dir;
+};
+
+TEST_F(EurocBadInput, MissingFoldersAndFiles) {
+  expect_input_error([&] { open(dir / "nowhere"); }, {"nowhere", "no such folder"});
+  expect_input_error([&] { open_euroc(dir / "mav0" / "cam0", DatasetFormat::kEuroc, {}, null_logger()); },
+                     {"not a EuRoC/TUM-VI sequence"});
+  std::filesystem::remove(cam0_csv());
+  expect_input_error([&] { open(dir.path()); }, {"cam0/data.csv", "missing file"});
+}
+
+TEST_F(EurocBadInput, MalformedTruncatedAndNonMonotonicRows) {
+  const std::string row = std::to_string(kT0 + 3 * kPeriod);
+  test::replace_line(cam0_csv(), 2 + 3, row + "," + row + ".png,extra");
+  expect_input_error([&] { open(dir.path()); }, {cam0_line(3), "expected 2 fields"});
+  test::replace_line(cam0_csv(), 2 + 3, row);
+  expect_input_error([&] { open(dir.path()); }, {cam0_line(3), "expected 2 fields"});
+  test::replace_line(cam0_csv(), 2 + 3, "14037152732.5," + row + ".png");
+  expect_input_error([&] { open(dir.path()); }, {cam0_line(3)});
+  test::replace_line(cam0_csv(), 2 + 3, std::to_string(kT0) + "," + row + ".png");
+  expect_input_error([&] { open(dir.path()); }, {cam0_line(3), "does not increase"});
+}
+
+TEST_F(EurocBadInput, AbsentImageInTheMiddleIsAnErrorOrASkip) {
+  std::filesystem::remove(cam0_png(6));
+  expect_input_error([&] { open(dir.path()); }, {cam0_line(6), "is absent", cam0_png(6).filename().string()});
+  DatasetConfig config;
+  config.skip_unreadable_frames = true;
+  const auto source = open(dir.path(), config);
+  EXPECT_EQ(source->size(), static_cast<std::size_t>(kFrames - 1));
+  // The right image of the dropped frame has no partner left: also listed as skipped.
+  EXPECT_EQ(source->info().skipped.size(), 2u);
+}
+
+TEST_F(EurocBadInput, CorruptPngIsAnErrorByDefaultAndASkipOnRequest) {
+  test::write_file(cam0_png(2), "not a png at all");
+  const auto strict = open(dir.path());
+  strict->next();
+  strict->next();
+  expect_input_error([&] { strict->next(); }, {cam0_line(2), "cannot decode", cam0_png(2).filename().string()});
+  DatasetConfig config;
+  config.skip_unreadable_frames = true;
+  const auto frames = read_all(*open(dir.path(), config));
+  ASSERT_EQ(frames.size(), static_cast<std::size_t>(kFrames - 1));
+  EXPECT_EQ(frames[2].imu.size(), 20u);
+}
+
+TEST_F(EurocBadInput, BadImuRows) {
+  const auto imu_csv = mav0() / "imu0" / "data.csv";
+  test::replace_line(imu_csv, 5, std::to_string(kT0 - 30000000) + ",0.1,0.2,nan,0,0,9.8");
+  expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "w_z", "finite"});
+  test::replace_line(imu_csv, 5, std::to_string(kT0 - 30000000) + ",0.1,0.2");
+  expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "expected 7 fields"});
+  test::replace_line(imu_csv, 5, std::to_string(kT0 - 30000000) + ",0.1,0.2,abc,0,0,9.8");
+  expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "not a number"});
+  test::replace_line(imu_csv, 5, std::to_string(kT0 - 60000000) + ",0.1,0.2,0.3,0,0,9.8");
+  expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "does not increase"});
+}
+
+TEST_F(EurocBadInput, BadCalibration) {
+  edit_yaml("intrinsics:", "intrinsics_typo:");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:intrinsics", "missing"});
+  edit_yaml("intrinsics_typo:", "intrinsics: [1, 2]\nx:");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:intrinsics", "has 2 numbers"});
+  test::write_file(cam0_yaml(), "%YAML:1.0\nT_BS: [1, 2\n");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml", "malformed"});
+}
+
+TEST_F(EurocBadInput, UnsupportedModelAndNonRigidExtrinsics) {
+  edit_yaml("camera_model: pinhole", "camera_model: omni");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:camera_model", "omni", "rig"});
+  edit_yaml("camera_model: omni", "camera_model: pinhole");
+  edit_yaml("data: [", "data: [7, ");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:T_BS"});
+}
+
+TEST_F(EurocBadInput, ImageSizeDiffersFromCalibration) {
+  edit_yaml("resolution: [48, 32]", "resolution: [752, 480]");
+  const auto source = open(dir.path());
+  expect_input_error([&] { source->next(); }, {cam0_line(0), "48x32", "752x480"});
+}
+
+}  // namespace
+}  // namespace fleetslam::core
