@@ -38,7 +38,11 @@ class PinholeCamera {
   Eigen::Matrix3d K() const;
   // Same intrinsics without distortion (the ideal camera undistorted points live in).
   PinholeCamera undistorted() const;
-  // Intrinsics for an image scaled by s (pyramid levels, reduced resolution).
+  // Intrinsics for this image resized by s with cv::resize (pyramid levels, reduced resolution).
+  // The new size is round(width * s) x round(height * s); intrinsics follow the effective per-axis
+  // ratios new_width / width and new_height / height and OpenCV's pixel-centre convention
+  // (u' = (u + 0.5) r - 0.5), so a point projects onto the same image content. Throws
+  // std::invalid_argument when s is not positive and finite or the new size would be empty.
   PinholeCamera scaled(double s) const;
 
   // Camera-frame point -> distorted pixel. nullopt when z <= min_depth (behind or on the camera plane).
@@ -48,19 +52,27 @@ class PinholeCamera {
 
   // Distorted pixel -> point on the z = 1 plane (iterative undistortion). nullopt when it does not converge.
   std::optional<Eigen::Vector3d> unproject(const Eigen::Vector2d& uv) const;
-  // Distorted pixel and depth along z -> camera-frame point.
+  // Distorted pixel and depth along z -> camera-frame point. nullopt also for depth_m <= 0 or non-finite.
   std::optional<Eigen::Vector3d> unproject(const Eigen::Vector2d& uv, double depth_m) const;
 
   // Normalised undistorted -> normalised distorted coordinates, with the 2x2 Jacobian when J is not null.
   Eigen::Vector2d distort(const Eigen::Vector2d& xn, Eigen::Matrix2d* J = nullptr) const;
-  // Inverse of distort (Gauss-Newton); nullopt when it does not converge.
+  // Inverse of distort (Newton with step halving, from xn = xd); nullopt when it does not converge within
+  // undistort_max_iterations to undistort_tolerance, or converges where distort() folds over
+  // (det of its Jacobian <= 0: beyond the calibrated region of strong radial distortion).
   std::optional<Eigen::Vector2d> undistort_normalized(const Eigen::Vector2d& xd) const;
   // Distorted pixels -> pixels of the undistorted() camera. Points that do not converge become NaN.
   std::vector<Eigen::Vector2d> undistort_points(const std::vector<Eigen::Vector2d>& uv) const;
 
+  // True when uv lies in the image shrunk by border_px on every side. With pixel centres at integers,
+  // the image covers [-0.5, width - 0.5) x [-0.5, height - 0.5). False for NaN.
   bool in_image(const Eigen::Vector2d& uv, double border_px = 0.0) const;
 
   static constexpr double min_depth = 1e-6;
+  // Undistortion stops when |distort(xn) - xd| (normalised units) is below the tolerance: 1e-12 times
+  // fx ~ 500 is ~1e-9 px, far below any feature's noise.
+  static constexpr int undistort_max_iterations = 30;
+  static constexpr double undistort_tolerance = 1e-12;
 
  private:
   int width_ = 0;
@@ -80,7 +92,9 @@ struct StereoRig {
 
   double bf() const { return baseline_m * camera.fx(); }
   // Disparity (u_left - u_right) in pixels -> depth in metres; nullopt for disparity <= 0.
+  // Both conversions require baseline_m > 0 (a FLEETSLAM_CHECK).
   std::optional<double> depth_from_disparity(double disparity_px) const;
+  // Depth in metres -> disparity in pixels; nullopt for depth <= 0.
   std::optional<double> disparity_from_depth(double depth_m) const;
   // Right-image u coordinate of a left-image u at a given depth ("virtual right" for RGB-D).
   double right_u(double u_left, double depth_m) const { return u_left - bf() / depth_m; }

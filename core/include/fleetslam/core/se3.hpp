@@ -17,7 +17,9 @@ Eigen::Matrix3d hat(const Eigen::Vector3d& v);
 
 // SO(3) exponential (Rodrigues) of a rotation vector; exact near zero and near pi.
 Eigen::Matrix3d so3_exp(const Eigen::Vector3d& phi);
-// SO(3) logarithm; returns phi with |phi| in [0, pi]. Input must be a rotation matrix.
+// SO(3) logarithm; returns phi with |phi| in [0, pi]. Input must be a rotation matrix. Keeps full
+// precision near 0 and near pi (computed through the quaternion, not acos of the trace); at exactly pi
+// both phi and -phi are logarithms and either may be returned.
 Eigen::Vector3d so3_log(const Eigen::Matrix3d& R);
 // Left Jacobian of SO(3) and its inverse.
 Eigen::Matrix3d so3_left_jacobian(const Eigen::Vector3d& phi);

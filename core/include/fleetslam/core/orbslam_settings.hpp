@@ -1,0 +1,66 @@
+#pragma once
+// Reader for camera settings files in the ORB-SLAM2/3 format, which users arriving from ORB-SLAM carry.
+// They are OpenCV FileStorage YAML ("%YAML:1.0" header, !!opencv-matrix tags), which yaml-cpp cannot
+// parse, so they are read with cv::FileStorage.
+//
+// Two layouts are understood:
+//  - old (ORB-SLAM2, ORB-SLAM3 before v1.0): Camera.fx/fy/cx/cy/k1/k2/p1/p2/k3, Camera.bf, ThDepth,
+//    DepthMapFactor, Tbc (IMU);
+//  - File.version: "1.0" (ORB-SLAM3 v1.0): Camera.type ("PinHole" or "Rectified"), Camera1.*, Camera2.*,
+//    Stereo.b, Stereo.T_c1_c2, Stereo.ThDepth, RGBD.DepthMapFactor, IMU.T_b_c1.
+// Both share Camera.width/height/fps/RGB, Camera.newWidth/newHeight, IMU.NoiseGyro/NoiseAcc/GyroWalk/
+// AccWalk/Frequency and ORBextractor.*. Other keys (Viewer.*, System.*, ...) are ignored.
+// Not supported (an InputError says so): fisheye cameras (Camera.type "KannalaBrandt8"). The old
+// layout's LEFT.*/RIGHT.* rectification matrices are not read: such files describe raw images, so
+// rectify them with stereo_rectify.hpp from the raw calibration instead.
+//
+// Frames: Stereo.T_c1_c2 is the pose of camera 2 in camera 1 (it maps camera-2 points into camera 1),
+// i.e. T_cam0_cam1; IMU.T_b_c1 (and Tbc) is the pose of camera 1 in the IMU body frame, T_body_cam0.
+
+#include <filesystem>
+#include <optional>
+
+#include "fleetslam/core/sensor_rig.hpp"
+
+namespace fleetslam::core {
+
+// ORBextractor.* (defaults: ORB-SLAM's usual values, used when a key is absent).
+struct OrbExtractorSettings {
+  int num_features = 1000;    // ORBextractor.nFeatures
+  double scale_factor = 1.2;  // ORBextractor.scaleFactor, > 1
+  int num_levels = 8;         // ORBextractor.nLevels
+  int ini_fast_threshold = 20;  // ORBextractor.iniThFAST
+  int min_fast_threshold = 7;   // ORBextractor.minThFAST
+};
+
+struct OrbSlamSettings {
+  // Mode, cameras as recorded, extrinsics, IMU noise, depth scale, bf, fps, colour order.
+  // Stereo from two cameras: cam1 and T_cam0_cam1 from Camera2.* and Stereo.T_c1_c2, bf = |t| * cam0.fx
+  // (as ORB-SLAM3 computes it; a rectified rig from stereo_rectify.hpp gives the exact one).
+  // Rectified stereo (old Camera.bf, or v1.0 Camera.type "Rectified" with Stereo.b): cam1 = cam0 and
+  // T_cam0_cam1 = translation (baseline, 0, 0). RGB-D: bf is the virtual baseline times fx.
+  SensorRig rig;
+  OrbExtractorSettings orb;
+  // Close/far depth threshold in baselines (ThDepth, Stereo.ThDepth); required for stereo and RGB-D,
+  // 0 when absent otherwise. In metres: th_depth * rig.bf / rig.cam0.fx() (see close_depth_m()).
+  double th_depth = 0.0;
+  // Camera.newWidth/newHeight: ORB-SLAM3 resizes images to this size before tracking; 0 when absent.
+  // The rig keeps the recorded calibration; PinholeCamera::scaled gives the resized one.
+  int new_width = 0;
+  int new_height = 0;
+
+  double close_depth_m() const { return rig.cam0.fx() > 0.0 ? th_depth * rig.bf / rig.cam0.fx() : 0.0; }
+};
+
+// Reads a settings file. With `mode` unset, the mode is inferred: DepthMapFactor (RGBD.DepthMapFactor)
+// -> RGB-D; a second camera (Camera2.*), Stereo.b / Stereo.T_c1_c2, Camera.type "Rectified" or an old
+// Camera.bf -> stereo; otherwise monocular. IMU keys (IMU.T_b_c1, Tbc, IMU.Noise*, ...) turn monocular
+// and stereo into their inertial variants (RGB-D with an IMU stays kRgbd, with rig.imu filled).
+// A given mode must find the keys it needs. Throws InputError "file:key: why" for a missing file,
+// a malformed file, a missing required key, a value of the wrong type or out of range (e.g. a
+// non-positive focal length), a matrix that is not 4x4 or not rigid (a rotation off orthonormal by
+// more than 1e-3; closer ones are orthonormalised).
+OrbSlamSettings read_orbslam_settings(const std::filesystem::path& file,
+                                      std::optional<SensorMode> mode = std::nullopt);
+
+}  // namespace fleetslam::core
