@@ -248,8 +248,11 @@ TrajectoryFormat detect_trajectory_format(const fs::path& path) {
   const auto fields = split_fields(line.text, where);
   const bool comma_separated = line.text.find(',') != std::string::npos;
   const bool ns_header = header_names_nanoseconds(reader.header());
-  const bool integer_stamp = !fields.empty() && is_integer_text(fields[0]);
-  const bool long_integer_stamp = integer_stamp && integer_digits(fields[0]) >= kNanosecondDigits;
+  // "1403715274312143104.0000000000" is a ns stamp, "1.000000" a stamp in seconds.
+  const bool long_integer_stamp =
+      !fields.empty() && is_integer_text(fields[0]) && integer_digits(fields[0]) >= kNanosecondDigits;
+  const bool integer_stamp = long_integer_stamp || (!fields.empty() && is_integer_text(fields[0]) &&
+                                                    fields[0].find('.') == std::string_view::npos);
   const std::size_t n = fields.size();
   // KITTI rows start with a rotation entry, which may print as "1": only a real ns stamp means EuRoC.
   if (n == 12) return long_integer_stamp || (integer_stamp && ns_header) ? TrajectoryFormat::kEuroc

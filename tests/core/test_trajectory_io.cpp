@@ -133,6 +133,12 @@ TEST(TrajectoryDetect, SpaceSeparatedNanosecondStampsAreTumInNanoseconds) {
   EXPECT_EQ(read_trajectory(path).at(0).t_ns, 1403715274312143104);
 }
 
+TEST(TrajectoryDetect, CommaSeparatedSecondsWithZeroFractionAreTum) {
+  const fs::path path = write_file(test_dir() / "tum_commas.txt", "1.000000,0,0,0,0,0,0,1\n2.5,0,0,0,0,0,0,1\n");
+  EXPECT_EQ(detect_trajectory_format(path), TrajectoryFormat::kTum);
+  EXPECT_EQ(read_trajectory(path).at(1).t_ns, 2'500'000'000);
+}
+
 TEST(TrajectoryDetect, KittiAndScientificTum) {
   const fs::path dir = test_dir();
   EXPECT_EQ(detect_trajectory_format(write_file(dir / "k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n")),
