@@ -68,8 +68,8 @@ std::size_t copy_frames(FrameSource& source, FrameSink& sink, Logger logger) {
     sink.write(*frame);
     progress.update(++done);
   }
+  progress.finish();  // frames skipped as unreadable leave the count short of size()
   sink.close();
-  progress.finish();
   return sink.frames_written();
 }
 

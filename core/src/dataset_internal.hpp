@@ -98,6 +98,9 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
 // Median spacing of sorted stamps in ns (0 for fewer than two).
 TimeNs median_interval_ns(const std::vector<TimeNs>& stamps);
 
+// Samples per second over the whole list (the TUM accelerometer comes in bursts, so no median).
+double mean_rate_hz(const std::vector<ImuSample>& samples);
+
 // Builds the FrameSource over an indexed sequence (applies the selection of `config`).
 std::unique_ptr<FrameSource> make_recorded_source(RecordedSequence sequence, const DatasetConfig& config,
                                                   Logger logger);

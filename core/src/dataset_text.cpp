@@ -122,7 +122,7 @@ std::vector<ImageRow> drop_absent_images(std::vector<ImageRow> rows, bool skip_a
     const std::string why = "image " + rows[i].image.string() + " is absent" +
                             (in_tail ? " (listed after the last image present)" : "");
     if (!in_tail && !skip_absent) throw InputError(rows[i].where, why);
-    logger->warn("{}: {}; frame skipped", rows[i].where, why);
+    logger->warn("{}: {}; row skipped", rows[i].where, why);
     skipped.push_back({rows[i].where, why});
   }
   return kept;
@@ -135,6 +135,11 @@ TimeNs median_interval_ns(const std::vector<TimeNs>& stamps) {
   const auto middle = gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2);
   std::nth_element(gaps.begin(), middle, gaps.end());
   return *middle;
+}
+
+double mean_rate_hz(const std::vector<ImuSample>& samples) {
+  if (samples.size() < 2 || samples.back().t_ns <= samples.front().t_ns) return 0.0;
+  return static_cast<double>(samples.size() - 1) / ns_to_seconds(samples.back().t_ns - samples.front().t_ns);
 }
 
 std::string exact(double value) {

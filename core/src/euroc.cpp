@@ -85,12 +85,9 @@ std::vector<ImuSample> read_imu_csv(const std::filesystem::path& file) {
 
 void attach_imu(RecordedSequence& sequence, const std::filesystem::path& file) {
   sequence.imu = read_imu_csv(file);
-  std::vector<TimeNs> stamps;
-  for (const ImuSample& s : sequence.imu) stamps.push_back(s.t_ns);
-  const TimeNs interval = median_interval_ns(stamps);
   sequence.info.imu_file = file.string();
   sequence.info.imu_samples = sequence.imu.size();
-  sequence.info.imu_rate_hz = interval > 0 ? 1.0 / ns_to_seconds(interval) : 0.0;
+  sequence.info.imu_rate_hz = mean_rate_hz(sequence.imu);
 }
 
 // Calibration: the caller's rig, else the sensor.yaml files (TUM-VI often needs the former).

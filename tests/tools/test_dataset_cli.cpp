@@ -1,0 +1,192 @@
+// End-to-end tests of `fleetslam dataset info|convert` on the real sequences (skipped when absent).
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "fleetslam/core/dataset.hpp"
+
+namespace fleetslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kData = FLEETSLAM_DATA_DIR;
+const fs::path kTum = kData / "tum" / "rgbd_dataset_freiburg1_rpy_200";
+const fs::path kEuroc = kData / "euroc" / "V1_01_easy_micro";
+const std::string kEurocGt = "--groundtruth '" + (kEuroc / "groundtruth_leftcam_tum.txt").string() + "'";
+
+#define SKIP_WITHOUT(folder)                                                                       \
+  if (!fs::is_directory(folder)) {                                                                 \
+    GTEST_SKIP() << "real data not found at " << (folder) << " (set FLEETSLAM_DATA_DIR to the shared data)"; \
+  }
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A fresh folder per test.
+class DatasetCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("fleetslam_dataset_cli_" + std::string(info->name()) + "_" +
+                                        std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  struct Result {
+    int exit_code = -1;
+    std::string out;
+    std::string err;
+  };
+
+  // Runs the CLI with stdout and stderr kept apart (logs go to stderr, results to stdout).
+  Result run(const std::string& arguments) const {
+    const std::string command = "'" FLEETSLAM_CLI "' " + arguments + " >'" + (dir_ / "stdout").string() + "' 2>'" +
+                                (dir_ / "stderr").string() + "'";
+    const int status = std::system(command.c_str());
+    Result result;
+    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    result.out = read_text(dir_ / "stdout");
+    result.err = read_text(dir_ / "stderr");
+    return result;
+  }
+
+  nlohmann::json info_json(const std::string& arguments) const {
+    const Result result = run("dataset info --json " + arguments);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return nlohmann::json::parse(result.out);
+  }
+
+  static std::string quoted(const fs::path& path) { return "'" + path.string() + "'"; }
+
+  fs::path dir_;
+};
+
+TEST_F(DatasetCli, InfoOnTumRgbd) {
+  SKIP_WITHOUT(kTum);
+  const nlohmann::json j = info_json(quoted(kTum));
+  EXPECT_EQ(j["format"], "tum_rgbd");
+  EXPECT_EQ(j["frames"], 200);
+  EXPECT_EQ(j["frames_with_groundtruth"], 200);
+  EXPECT_EQ(j["skipped_rows"].size(), 0u);
+  EXPECT_NEAR(j["rate_hz"].get<double>(), 30.0, 0.5);
+  EXPECT_EQ(j["rig"]["mode"], "rgbd");
+  EXPECT_DOUBLE_EQ(j["rig"]["cam0"]["fx"].get<double>(), 517.3);
+  EXPECT_TRUE(j["accelerometer_only"].get<bool>());
+  const Result text = run("dataset info " + quoted(kTum));
+  EXPECT_EQ(text.exit_code, 0);
+  EXPECT_NE(text.out.find("frames:       200"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("200 of 200 frames covered"), std::string::npos) << text.out;
+}
+
+TEST_F(DatasetCli, InfoOnEurocWithGroundTruthFileAndCheck) {
+  SKIP_WITHOUT(kEuroc);
+  const nlohmann::json j = info_json(quoted(kEuroc) + " --check " + kEurocGt);
+  EXPECT_EQ(j["format"], "euroc");
+  EXPECT_EQ(j["frames"], 95);
+  EXPECT_EQ(j["listed_frames"], 95);
+  ASSERT_EQ(j["skipped_rows"].size(), 4u);
+  EXPECT_NE(j["skipped_rows"][0]["where"].get<std::string>().find("cam1/data.csv:97"), std::string::npos);
+  EXPECT_EQ(j["frames_with_groundtruth"], 74);
+  EXPECT_NEAR(j["imu_rate_hz"].get<double>(), 200.0, 0.5);
+  EXPECT_EQ(j["rig"]["mode"], "stereo_inertial");
+  EXPECT_NEAR(j["rig"]["baseline_m"].get<double>(), 0.1101, 1e-4);
+  EXPECT_EQ(j["check"]["decoded_frames"], 95);
+  EXPECT_EQ(j["check"]["unreadable_frames"], 0);
+}
+
+TEST_F(DatasetCli, ConvertTumToTumKeepsFramesBitExact) {
+  SKIP_WITHOUT(kTum);
+  const fs::path out = dir_ / "tum";
+  const Result result = run("dataset convert " + quoted(kTum) + " --to tum_rgbd --out " + quoted(out) + " --stop 10");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("wrote 10 frames"), std::string::npos);
+  const nlohmann::json j = info_json(quoted(out));
+  EXPECT_EQ(j["frames"], 10);
+  EXPECT_EQ(j["frames_with_groundtruth"], 10);
+  EXPECT_NE(j["calibration_source"].get<std::string>().find("camera.yaml"), std::string::npos);
+
+  const auto original = core::open_dataset(kTum, std::nullopt, {}, core::null_logger());
+  const auto copy = core::open_dataset(out, std::nullopt, {}, core::null_logger());
+  EXPECT_EQ(copy->rig().cam0.fx(), original->rig().cam0.fx());
+  for (int i = 0; i < 10; ++i) {
+    const auto a = original->next();
+    const auto b = copy->next();
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->t_ns, b->t_ns);
+    EXPECT_EQ(cv::norm(a->image, b->image, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(a->depth_m, b->depth_m, cv::NORM_INF), 0.0);  // raw -> metres -> raw is exact
+    EXPECT_TRUE(a->T_world_cam_gt->isApprox(*b->T_world_cam_gt, 1e-12));
+    if (i > 0) {  // frame 0 takes the samples of one median frame period before it
+      EXPECT_EQ(a->imu.size(), b->imu.size());
+    }
+  }
+  EXPECT_FALSE(copy->next().has_value());
+}
+
+TEST_F(DatasetCli, ConvertEurocToEurocAndTumToEuroc) {
+  SKIP_WITHOUT(kEuroc);
+  SKIP_WITHOUT(kTum);
+  const fs::path out = dir_ / "euroc";
+  Result result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(out) + " --start 20 --stop 40 " +
+                      kEurocGt);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  nlohmann::json j = info_json(quoted(out));
+  EXPECT_EQ(j["frames"], 20);
+  EXPECT_EQ(j["rig"]["mode"], "stereo_inertial");
+  EXPECT_EQ(j["frames_with_groundtruth"], 19);  // the excerpt's ground truth starts at frame 21
+  EXPECT_NEAR(j["rig"]["cam1"]["fx"].get<double>(), 457.587, 1e-12);
+  EXPECT_EQ(j["skipped_rows"].size(), 0u);
+
+  result = run("dataset convert " + quoted(kTum) + " --to euroc --out " + quoted(dir_ / "mono") + " --stride 20");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("depth maps dropped"), std::string::npos) << result.err;
+  j = info_json(quoted(dir_ / "mono"));
+  EXPECT_EQ(j["frames"], 10);
+  EXPECT_EQ(j["rig"]["mode"], "monocular");
+  EXPECT_EQ(j["frames_with_groundtruth"], 10);
+}
+
+TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
+  SKIP_WITHOUT(kEuroc);
+  Result result = run("dataset convert " + quoted(kEuroc) + " --to tum_rgbd --out " + quoted(dir_ / "x"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("no depth images"), std::string::npos) << result.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
+
+  result = run("dataset info " + quoted(dir_ / "nowhere"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("nowhere: no such folder"), std::string::npos) << result.err;
+
+  fs::create_directories(dir_ / "full");
+  std::ofstream(dir_ / "full" / "file") << "x";
+  result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "full"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("not empty"), std::string::npos) << result.err;
+
+  result = run("dataset info " + quoted(kEuroc) + " --format kitti");
+  EXPECT_NE(result.exit_code, 0);
+  result = run("dataset info " + quoted(kEuroc) + " --groundtruth " + quoted(dir_ / "gt.txt"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("gt.txt: missing ground-truth file"), std::string::npos) << result.err;
+}
+
+}  // namespace
+}  // namespace fleetslam
