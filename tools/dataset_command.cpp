@@ -13,6 +13,7 @@
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
+#include "fleetslam/core/orbslam_settings.hpp"
 
 namespace fleetslam::tools {
 namespace {
@@ -21,6 +22,7 @@ struct DatasetOptions {
   std::string path;
   std::string format;  // empty: detect
   std::string groundtruth;
+  std::string calibration;
   bool json = false;
   bool check = false;
   std::string to;
@@ -40,6 +42,10 @@ core::Logger make_cli_logger(const GlobalOptions& global) {
 std::unique_ptr<core::FrameSource> open_source(const DatasetOptions& options, core::DatasetConfig config,
                                                const core::Logger& logger) {
   config.groundtruth_file = options.groundtruth;
+  if (!options.calibration.empty()) {
+    config.rig = core::read_orbslam_settings(options.calibration).rig;
+    config.rig_source = options.calibration;
+  }
   std::optional<core::DatasetFormat> format;
   if (!options.format.empty()) format = core::dataset_format_from_string(options.format);
   return core::open_dataset(options.path, format, config, logger);
@@ -194,6 +200,9 @@ void add_source_options(CLI::App& command, DatasetOptions& options) {
       ->check(CLI::IsMember({"tum_rgbd", "euroc", "tumvi"}));
   command.add_option("--groundtruth", options.groundtruth,
                      "Ground-truth file of camera poses (TUM, EuRoC csv or KITTI) instead of the dataset's own");
+  command.add_option("--calibration", options.calibration,
+                     "ORB-SLAM settings file to use instead of the dataset's calibration (needed for TUM-VI "
+                     "equidistant cameras and TUM folders of unknown cameras)");
 }
 
 }  // namespace

@@ -94,7 +94,7 @@ void attach_imu(RecordedSequence& sequence, const std::filesystem::path& file) {
 SensorRig euroc_rig(const std::filesystem::path& mav0, const DatasetConfig& config, bool stereo, bool inertial,
                     DatasetInfo& info) {
   if (config.rig) {
-    info.calibration_source = "rig given by the caller";
+    info.calibration_source = config.rig_source.empty() ? "rig given by the caller" : config.rig_source;
     return *config.rig;
   }
   const std::filesystem::path cam0_yaml = mav0 / "cam0" / "sensor.yaml";

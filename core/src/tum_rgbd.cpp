@@ -74,7 +74,7 @@ SensorRig tum_rig(const std::filesystem::path& root, const DatasetConfig& config
   SensorRig rig;
   if (config.rig) {
     rig = *config.rig;
-    info.calibration_source = "rig given by the caller";
+    info.calibration_source = config.rig_source.empty() ? "rig given by the caller" : config.rig_source;
   } else if (std::filesystem::exists(root / kTumCameraFile, ec)) {
     rig = read_tum_camera_file(root / kTumCameraFile);
     info.calibration_source = (root / kTumCameraFile).string();

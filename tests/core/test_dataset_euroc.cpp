@@ -5,6 +5,8 @@
 
 #include <random>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "dataset_test_util.hpp"
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/euroc.hpp"
@@ -251,6 +253,18 @@ TEST(Euroc, TumViLayoutNeedsAGivenRigForEquidistantCameras) {
   EXPECT_EQ(read_all(*source).size(), written.size());
   std::filesystem::remove(mav0 / "cam0" / "sensor.yaml");
   expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml", "missing camera calibration", "rig"});
+}
+
+TEST(Euroc, SixteenBitImagesOfTumViReadAsEightBitGray) {
+  TempDir dir;
+  write_sequence(dir.path(), make_frames(9, false, false), mono_rig());
+  const auto png = dir / "mav0" / "cam0" / "data" / (std::to_string(kT0) + ".png");
+  cv::Mat wide(kHeight, kWidth, CV_16UC1, cv::Scalar(0x1234));
+  ASSERT_TRUE(cv::imwrite(png.string(), wide));
+  const auto frame = open(dir.path())->next();
+  ASSERT_TRUE(frame.has_value());
+  ASSERT_EQ(frame->image.type(), CV_8UC1);
+  EXPECT_EQ(frame->image.at<std::uint8_t>(0, 0), 0x12);
 }
 
 // ---- bad input --------------------------------------------------------------------------------------

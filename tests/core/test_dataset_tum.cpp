@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dataset_test_util.hpp"
+#include "fleetslam/core/config.hpp"
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/trajectory.hpp"
 #include "fleetslam/core/tum_rgbd.hpp"
@@ -252,6 +253,19 @@ TEST(TumRgbd, GivenRigAndDepthScaleWin) {
   ASSERT_TRUE(frame.has_value());
   const float w = written[0].depth_m.at<float>(0, 1);
   EXPECT_NEAR(static_cast<double>(frame->depth_m.at<float>(0, 1)), 2.0 * static_cast<double>(w), 2.0 / 5000.0);
+}
+
+TEST(DatasetConfig, ReadsFromYamlWithLimits) {
+  const auto config = load_config<DatasetConfig>(
+      ConfigReader::from_string("dataset:\n  stride: 2\n  robot_id: 1\n  skip_unreadable_frames: true\n", "run.yaml"),
+      "dataset");
+  EXPECT_EQ(config.stride, 2);
+  EXPECT_EQ(config.robot_id, 1);
+  EXPECT_TRUE(config.skip_unreadable_frames);
+  EXPECT_DOUBLE_EQ(config.max_association_difference_s, 0.02);
+  expect_input_error(
+      [] { load_config<DatasetConfig>(ConfigReader::from_string("stride: 0\n", "run.yaml")); },
+      {"run.yaml", "stride"});
 }
 
 // ---- bad input --------------------------------------------------------------------------------------

@@ -112,6 +112,18 @@ TEST_F(DatasetCli, InfoOnEurocWithGroundTruthFileAndCheck) {
   EXPECT_EQ(j["check"]["unreadable_frames"], 0);
 }
 
+TEST_F(DatasetCli, CalibrationFromAnOrbSlamSettingsFile) {
+  SKIP_WITHOUT(kTum);
+  SKIP_WITHOUT(kEuroc);
+  nlohmann::json j = info_json(quoted(kTum) + " --calibration " + quoted(kData / "calib" / "TUM1.yaml"));
+  EXPECT_DOUBLE_EQ(j["rig"]["cam0"]["fx"].get<double>(), 517.306408);
+  EXPECT_NE(j["calibration_source"].get<std::string>().find("TUM1.yaml"), std::string::npos);
+  j = info_json(quoted(kEuroc) + " --check --calibration " + quoted(kData / "calib" / "Stereo-Inertial_EuRoC.yaml"));
+  EXPECT_EQ(j["rig"]["mode"], "stereo_inertial");
+  EXPECT_NEAR(j["rig"]["baseline_m"].get<double>(), 0.1101, 1e-4);
+  EXPECT_EQ(j["check"]["decoded_frames"], 95);
+}
+
 TEST_F(DatasetCli, ConvertTumToTumKeepsFramesBitExact) {
   SKIP_WITHOUT(kTum);
   const fs::path out = dir_ / "tum";

@@ -55,6 +55,7 @@ struct DatasetConfig {
   // Calibration to use instead of the dataset's own files or built-in defaults (required for TUM-VI
   // sequences whose cameras use the equidistant model, and for TUM folders of unknown cameras).
   std::optional<SensorRig> rig;
+  std::string rig_source;  // where `rig` came from (a file name), reported by info()
 
   template <class V>
   void visit(V& v) {
@@ -106,6 +107,9 @@ struct DatasetInfo {
 };
 
 // A stream of frames. next() decodes one frame's images and returns nullopt at the end.
+// IMU: every frame carries the samples with t in (previous frame handed out, frame], so the samples of
+// frames left out by the selection or skipped as unreadable stay in the stream; the first frame carries
+// those of one (median) frame period before it.
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
