@@ -10,6 +10,8 @@ packages=(
   libeigen3-dev libopencv-dev libyaml-cpp-dev libspdlog-dev nlohmann-json3-dev
   # tools and tests
   libcli11-dev libgtest-dev libgmock-dev
+  # sim (MuJoCo 2.2 rendering off-screen through OSMesa)
+  libmujoco-dev libosmesa6-dev
 )
 
 missing=()

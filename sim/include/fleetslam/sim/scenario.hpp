@@ -1,0 +1,158 @@
+#pragma once
+// A scenario: which MJCF scene, which robots where, with which sensors, for how long.
+// Read from YAML with core::ConfigReader (unknown keys, bad values: errors naming file:key).
+//
+//   scene: ../office/office.xml        # relative to the scenario file
+//   duration_s: 20
+//   seed: 1
+//   robots:
+//     - name: alpha
+//       type: diff_drive               # diff_drive | free_rig
+//       initial_pose: {x: 0.5, y: 0.0, z: 0.0, yaw_deg: 90}
+//       rgbd: {width: 640, height: 480, fovy_deg: 45, rate_hz: 30}
+//       waypoints: [{x: 1, y: 2}, {x: 3, y: 2}]   # diff_drive: path; free_rig: timed knots (t_s, rpy)
+
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/sim/imu_model.hpp"
+#include "fleetslam/sim/motion.hpp"
+#include "fleetslam/sim/sensor_noise.hpp"
+
+namespace fleetslam::sim {
+
+enum class RobotType { kDiffDrive, kFreeRig };
+
+// A pose in the robot body frame (x forward, y left, z up) or in the world (z up).
+struct PoseConfig {
+  double x = 0.0, y = 0.0, z = 0.0;
+  double roll_deg = 0.0, pitch_deg = 0.0, yaw_deg = 0.0;
+
+  template <class V>
+  void visit(V& v) {
+    const core::Limits<double> position{-1e4, 1e4};
+    const core::Limits<double> angle{-360.0, 360.0};
+    v("x", x, position);
+    v("y", y, position);
+    v("z", z, position);
+    v("roll_deg", roll_deg, angle);
+    v("pitch_deg", pitch_deg, angle);
+    v("yaw_deg", yaw_deg, angle);
+  }
+};
+
+struct WaypointConfig {
+  double t_s = 0.0;  // free_rig knots only
+  double x = 0.0, y = 0.0, z = 0.0;
+  double roll_deg = 0.0, pitch_deg = 0.0, yaw_deg = 0.0;
+
+  template <class V>
+  void visit(V& v) {
+    v("t_s", t_s, core::Limits<double>{0.0, 1e6});
+    v("x", x);
+    v("y", y);
+    v("z", z);
+    v("roll_deg", roll_deg);
+    v("pitch_deg", pitch_deg);
+    v("yaw_deg", yaw_deg);
+  }
+};
+
+// A camera on a robot. The optical frame looks along the mount's +x (forward); intrinsics follow from
+// the vertical field of view: fy = fx = (height / 2) / tan(fovy / 2), principal point at the image centre.
+struct CameraConfig {
+  bool enabled = true;
+  int width = 640;
+  int height = 480;
+  double fovy_deg = 45.0;
+  double rate_hz = 30.0;
+  bool shadows = false;
+  PoseConfig mount{0.15, 0.0, 0.3, 0.0, 0.0, 0.0};
+  ImageNoiseConfig image_noise;
+  DepthNoiseConfig depth_noise;
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("width", width, core::Limits<int>{16, 4096});
+    v("height", height, core::Limits<int>{16, 4096});
+    v("fovy_deg", fovy_deg, core::Limits<double>{1.0, 170.0});
+    v("rate_hz", rate_hz, core::Limits<double>{0.1, 1000.0});
+    v("shadows", shadows);
+    v("mount", mount);
+    v("image_noise", image_noise);
+    v("depth_noise", depth_noise);
+  }
+};
+
+// A rectified stereo pair: the left camera is `camera`, the right one sits baseline_m to its right.
+struct StereoConfig {
+  bool enabled = false;
+  double baseline_m = 0.11;
+  CameraConfig camera;
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("baseline_m", baseline_m, core::Limits<double>{0.001, 10.0});
+    v("camera", camera);
+  }
+};
+
+struct RobotConfig {
+  std::string name;
+  RobotType type = RobotType::kDiffDrive;
+  PoseConfig initial_pose;
+  std::int64_t seed = -1;      // -1: derived from the scenario seed and the robot's index
+  double radius_m = 0.2;       // collision radius (diff_drive body), also used for start overlap checks
+  CameraConfig rgbd;
+  StereoConfig stereo;
+  ImuModelConfig imu;
+  PurePursuitConfig controller;
+  std::vector<WaypointConfig> waypoints;
+
+  template <class V>
+  void visit(V& v) {
+    v.required("name", name);
+    v.choice("type", type, {{"diff_drive", RobotType::kDiffDrive}, {"free_rig", RobotType::kFreeRig}});
+    v("initial_pose", initial_pose);
+    v("seed", seed, core::Limits<std::int64_t>{-1, std::numeric_limits<std::int64_t>::max()});
+    v("radius_m", radius_m, core::Limits<double>{0.01, 10.0});
+    v("rgbd", rgbd);
+    v("stereo", stereo);
+    v("imu", imu);
+    v("controller", controller);
+    v("waypoints", waypoints);
+  }
+};
+
+struct ScenarioConfig {
+  std::string scene;                 // MJCF file, relative to the scenario file's folder
+  double duration_s = 10.0;
+  double physics_step_s = 0.001;
+  std::int64_t seed = 1;
+  std::vector<RobotConfig> robots;
+
+  std::filesystem::path base_dir;    // folder of the scenario file (not a YAML key)
+
+  template <class V>
+  void visit(V& v) {
+    v.required("scene", scene);
+    v("duration_s", duration_s, core::Limits<double>{0.0, 1e6});
+    v("physics_step_s", physics_step_s, core::Limits<double>{1e-5, 0.1});
+    v("seed", seed, core::Limits<std::int64_t>{0, std::numeric_limits<std::int64_t>::max()});
+    v("robots", robots);
+  }
+
+  std::filesystem::path scene_path() const { return base_dir / scene; }
+};
+
+// Reads a scenario file: the typed config plus checks that need the whole (unique robot names,
+// at least one robot, waypoints fit the robot type). Throws InputError naming file:key.
+ScenarioConfig load_scenario(const std::filesystem::path& file);
+
+}  // namespace fleetslam::sim
