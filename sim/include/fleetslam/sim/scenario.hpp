@@ -9,7 +9,8 @@
 //     - name: alpha
 //       type: diff_drive               # diff_drive | free_rig
 //       initial_pose: {x: 0.5, y: 0.0, z: 0.0, yaw_deg: 90}
-//       rgbd: {width: 640, height: 480, fovy_deg: 45, rate_hz: 30}
+//       camera: {width: 640, height: 480, fovy_deg: 45, rate_hz: 30, depth: true}
+//       stereo: {enabled: true, baseline_m: 0.11}          # adds a right camera
 //       waypoints: [{x: 1, y: 2}, {x: 3, y: 2}]   # diff_drive: path; free_rig: timed knots (t_s, rpy)
 
 #include <cstdint>
@@ -62,10 +63,14 @@ struct WaypointConfig {
   }
 };
 
-// A camera on a robot. The optical frame looks along the mount's +x (forward); intrinsics follow from
-// the vertical field of view: fy = fx = (height / 2) / tan(fovy / 2), principal point at the image centre.
+// The camera on a robot. The optical axis looks along the mount's +x (forward); intrinsics follow from
+// the vertical field of view: fy = fx = (height / 2) / tan(fovy / 2), principal point at the image
+// centre ((width - 1) / 2, (height - 1) / 2). With `depth` it is an RGB-D camera (metric depth
+// registered to the image); with a stereo pair it is the left camera.
 struct CameraConfig {
   bool enabled = true;
+  bool depth = true;           // render metric depth registered to the image
+  bool gray = false;           // 8-bit gray images instead of colour (EuRoC-like)
   int width = 640;
   int height = 480;
   double fovy_deg = 45.0;
@@ -78,6 +83,8 @@ struct CameraConfig {
   template <class V>
   void visit(V& v) {
     v("enabled", enabled);
+    v("depth", depth);
+    v("gray", gray);
     v("width", width, core::Limits<int>{16, 4096});
     v("height", height, core::Limits<int>{16, 4096});
     v("fovy_deg", fovy_deg, core::Limits<double>{1.0, 170.0});
@@ -89,17 +96,16 @@ struct CameraConfig {
   }
 };
 
-// A rectified stereo pair: the left camera is `camera`, the right one sits baseline_m to its right.
+// A rectified stereo pair: the robot's camera is the left one; a right camera with the same intrinsics
+// sits baseline_m along the left camera's x axis (to its right).
 struct StereoConfig {
   bool enabled = false;
   double baseline_m = 0.11;
-  CameraConfig camera;
 
   template <class V>
   void visit(V& v) {
     v("enabled", enabled);
     v("baseline_m", baseline_m, core::Limits<double>{0.001, 10.0});
-    v("camera", camera);
   }
 };
 
@@ -109,7 +115,7 @@ struct RobotConfig {
   PoseConfig initial_pose;
   std::int64_t seed = -1;      // -1: derived from the scenario seed and the robot's index
   double radius_m = 0.2;       // collision radius (diff_drive body), also used for start overlap checks
-  CameraConfig rgbd;
+  CameraConfig camera;
   StereoConfig stereo;
   ImuModelConfig imu;
   PurePursuitConfig controller;
@@ -122,7 +128,7 @@ struct RobotConfig {
     v("initial_pose", initial_pose);
     v("seed", seed, core::Limits<std::int64_t>{-1, std::numeric_limits<std::int64_t>::max()});
     v("radius_m", radius_m, core::Limits<double>{0.01, 10.0});
-    v("rgbd", rgbd);
+    v("camera", camera);
     v("stereo", stereo);
     v("imu", imu);
     v("controller", controller);
