@@ -56,7 +56,7 @@ std::vector<FrameEntry> select_entries(std::vector<FrameEntry> entries, const Da
   const std::int64_t stop = config.stop_index < 0 ? n : std::min(config.stop_index, n);
   std::vector<FrameEntry> selected;
   std::int64_t kept = 0;
-  for (std::int64_t i = std::min(config.start_index, n); i < stop; ++i) {
+  for (std::int64_t i = std::clamp<std::int64_t>(config.start_index, 0, n); i < stop; ++i) {
     FrameEntry& entry = entries[static_cast<std::size_t>(i)];
     const double offset_s = ns_to_seconds(entry.t_ns - t_first);
     if (offset_s < config.start_offset_s) continue;

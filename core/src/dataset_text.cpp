@@ -101,6 +101,7 @@ std::vector<ImageRow> read_image_list(const std::filesystem::path& list_file, St
     }
     rows.push_back({*t_ns, image_folder / row.fields[1], where});
   }
+  if (rows.empty()) throw InputError(list_file.string(), "the " + purpose + " lists no images");
   return rows;
 }
 
@@ -110,6 +111,10 @@ std::vector<ImageRow> drop_absent_images(std::vector<ImageRow> rows, bool skip_a
   std::vector<bool> present(rows.size());
   for (std::size_t i = 0; i < rows.size(); ++i) present[i] = std::filesystem::exists(rows[i].image, ec);
   const auto last_present = std::find(present.rbegin(), present.rend(), true);
+  if (!rows.empty() && last_present == present.rend()) {
+    throw InputError(rows.front().where, "none of the listed images is present (first: " +
+                                             rows.front().image.string() + ")");
+  }
   const std::size_t tail_start = static_cast<std::size_t>(present.rend() - last_present);
   std::vector<ImageRow> kept;
   kept.reserve(rows.size());

@@ -291,6 +291,8 @@ TEST_F(EurocBadInput, MissingFoldersAndFiles) {
   expect_input_error([&] { open(dir / "nowhere"); }, {"nowhere", "no such folder"});
   expect_input_error([&] { open_euroc(dir / "mav0" / "cam0", DatasetFormat::kEuroc, {}, null_logger()); },
                      {"not a EuRoC/TUM-VI sequence"});
+  std::filesystem::remove_all(mav0() / "cam1" / "data");
+  expect_input_error([&] { open(dir.path()); }, {"cam1/data.csv:2", "none of the listed images is present"});
   std::filesystem::remove(cam0_csv());
   expect_input_error([&] { open(dir.path()); }, {"cam0/data.csv", "missing file"});
 }

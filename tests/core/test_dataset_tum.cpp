@@ -300,6 +300,8 @@ TEST_F(TumRgbdBadInput, MalformedAndTruncatedLines) {
   expect_input_error([&] { open(dir.path()); }, {rgb_line(2), "not a valid time"});
   test::replace_line(rgb_txt(), kHeaderLines + 3, "nan rgb/x.png");
   expect_input_error([&] { open(dir.path()); }, {rgb_line(2), "not a valid time"});
+  test::write_file(rgb_txt(), "# color images\n# timestamp filename\n");
+  expect_input_error([&] { open(dir.path()); }, {"rgb.txt", "lists no images"});
 }
 
 TEST_F(TumRgbdBadInput, NonMonotonicStamps) {
