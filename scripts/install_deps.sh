@@ -11,7 +11,7 @@ packages=(
   # tools and tests
   libcli11-dev libgtest-dev libgmock-dev
   # sim (MuJoCo 2.2 rendering off-screen through OSMesa)
-  libmujoco-dev libosmesa6-dev
+  libmujoco-dev libosmesa6-dev libqhull-dev  # mujocoConfig.cmake names libqhull_r headers
 )
 
 missing=()
