@@ -1,0 +1,429 @@
+// sim::World against analytic ground truth: metric depth on planes, stereo disparity, IMU at rest and
+// integrated over a second of motion, tick scheduling, byte-identical repeats, surface sampling, errors.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
+#include "fleetslam/sim/world.hpp"
+
+namespace fleetslam::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A temp folder with a scene: floor, a wall whose face is at x = wall_x, a red marker sphere.
+fs::path write_scene(const std::string& name, const std::string& body) {
+  const fs::path dir = fs::temp_directory_path() / ("fleetslam_test_world_" + name);
+  fs::create_directories(dir);
+  std::ofstream(dir / "scene.xml") << "<mujoco model=\"" << name << "\">\n"
+                                   << "  <asset><material name=\"glow\" rgba=\"1 0 0 1\" emission=\"1\"/></asset>\n"
+                                   << "  <worldbody>\n"
+                                   << "    <light pos=\"0 0 5\" dir=\"0 0 -1\" castshadow=\"false\"/>\n"
+                                   << body << "  </worldbody>\n</mujoco>\n";
+  return dir;
+}
+
+const char* kWallScene =
+    "    <geom name=\"floor\" type=\"plane\" size=\"10 10 0.1\" rgba=\"0.5 0.5 0.5 1\"/>\n"
+    "    <geom name=\"wall\" type=\"box\" pos=\"2.25 0 1.5\" size=\"0.1 4 3\" rgba=\"0.8 0.8 0.8 1\"/>\n"
+    // An emissive square facing the cameras: its projected centroid is the projection of its centre.
+    "    <geom name=\"marker\" type=\"box\" pos=\"1.5 0.1 1.25\" size=\"0.001 0.03 0.03\" material=\"glow\"/>\n";
+
+// A stationary free rig at `pose` (camera mount at its origin, looking along +x).
+RobotConfig still_rig(const std::string& name, const PoseConfig& pose) {
+  RobotConfig robot;
+  robot.name = name;
+  robot.type = RobotType::kFreeRig;
+  robot.initial_pose = pose;
+  robot.seed = 7;
+  robot.camera.mount = PoseConfig{};
+  robot.camera.image_noise.enabled = false;
+  robot.camera.depth_noise.enabled = false;
+  robot.imu.noise_enabled = false;
+  for (double t : {0.0, 100.0}) {
+    WaypointConfig w;
+    w.t_s = t;
+    w.x = pose.x;
+    w.y = pose.y;
+    w.z = pose.z;
+    w.roll_deg = pose.roll_deg;
+    w.pitch_deg = pose.pitch_deg;
+    w.yaw_deg = pose.yaw_deg;
+    robot.waypoints.push_back(w);
+  }
+  return robot;
+}
+
+ScenarioConfig scenario_in(const fs::path& dir, std::vector<RobotConfig> robots, double duration_s = 1.0) {
+  ScenarioConfig scenario;
+  scenario.scene = "scene.xml";
+  scenario.base_dir = dir;
+  scenario.duration_s = duration_s;
+  scenario.robots = std::move(robots);
+  return scenario;
+}
+
+TEST(World, DepthOfAFrontoParallelWallIsExact) {
+  const fs::path dir = write_scene("wall", kWallScene);
+  // Camera at x = 0.15, wall face at x = 2.15: every wall pixel is 2 m deep along the optical axis.
+  World world(scenario_in(dir, {still_rig("cam", PoseConfig{0.15, 0.0, 1.25, 0, 0, 0})}), nullptr);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 1u);
+  const cv::Mat& depth = frames[0].depth_m;
+  ASSERT_EQ(depth.type(), CV_32FC1);
+  double worst = 0.0;
+  int wall_pixels = 0;
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const double z = depth.at<float>(v, u);
+      if (std::abs(z - 2.0) < 0.05) {
+        worst = std::max(worst, std::abs(z - 2.0));
+        ++wall_pixels;
+      }
+    }
+  }
+  EXPECT_GT(wall_pixels, depth.rows * depth.cols * 8 / 10);  // the marker and floor cover little
+  EXPECT_LT(worst, 1e-3);
+}
+
+TEST(World, DepthOfTheFloorMatchesRayCasting) {
+  const fs::path dir = write_scene("floor", "    <geom type=\"plane\" size=\"30 30 0.1\" rgba=\"0.5 0.5 0.5 1\"/>\n");
+  // Looking 35 degrees down from 1.2 m: the lower image sees the floor, the top sees nothing.
+  World world(scenario_in(dir, {still_rig("cam", PoseConfig{0, 0, 1.2, 0, 35, 20})}), nullptr);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 1u);
+  const core::PinholeCamera camera = world.sensor_rig(0).cam0;
+  const Eigen::Isometry3d T_world_cam = *frames[0].T_world_cam_gt;
+  double worst = 0.0;
+  int floor_pixels = 0;
+  for (int v = 0; v < camera.height(); v += 3) {
+    for (int u = 0; u < camera.width(); u += 3) {
+      const Eigen::Vector3d ray_world = T_world_cam.linear() * *camera.unproject(Eigen::Vector2d(u, v));
+      if (ray_world.z() > -1e-3) continue;
+      const double depth_true = -T_world_cam.translation().z() / ray_world.z();
+      if (depth_true > 20.0) continue;  // beyond the plane's extent or the far plane
+      worst = std::max(worst, std::abs(static_cast<double>(frames[0].depth_m.at<float>(v, u)) - depth_true));
+      ++floor_pixels;
+    }
+  }
+  EXPECT_GT(floor_pixels, 5000);
+  EXPECT_LT(worst, 1e-3);
+}
+
+// Centroid of the red marker's pixels.
+Eigen::Vector2d red_centroid(const cv::Mat& bgr) {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int n = 0;
+  for (int v = 0; v < bgr.rows; ++v) {
+    for (int u = 0; u < bgr.cols; ++u) {
+      const cv::Vec3b p = bgr.at<cv::Vec3b>(v, u);
+      if (p[2] > 200 && p[1] < 120 && p[0] < 120) {
+        sum += Eigen::Vector2d(u, v);
+        ++n;
+      }
+    }
+  }
+  EXPECT_GT(n, 20);
+  return sum / std::max(n, 1);
+}
+
+TEST(World, StereoDisparityEqualsFocalTimesBaselineOverDepth) {
+  const fs::path dir = write_scene("stereo", kWallScene);
+  RobotConfig robot = still_rig("pair", PoseConfig{0.0, 0.0, 1.25, 0, 0, 0});
+  robot.stereo.enabled = true;
+  robot.stereo.baseline_m = 0.12;
+  World world(scenario_in(dir, {robot}), nullptr);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 1u);
+  ASSERT_FALSE(frames[0].right.empty());
+  const core::SensorRig rig = world.sensor_rig(0);
+  ASSERT_TRUE(rig.cam1.has_value());
+  EXPECT_NEAR(rig.T_cam0_cam1.translation().x(), 0.12, 1e-12);
+  // The marker's centre, 1.5 m ahead: its projections in both images, and the disparity f * b / z.
+  const Eigen::Vector3d p_cam = frames[0].T_world_cam_gt->inverse() * Eigen::Vector3d(1.499, 0.1, 1.25);
+  const Eigen::Vector2d left = red_centroid(frames[0].image);
+  const Eigen::Vector2d right = red_centroid(frames[0].right);
+  EXPECT_NEAR((left - *rig.cam0.project(p_cam)).norm(), 0.0, 0.3);
+  EXPECT_NEAR(left.y(), right.y(), 0.2);  // rectified: same row
+  EXPECT_NEAR(left.x() - right.x(), rig.cam0.fx() * 0.12 / p_cam.z(), 0.3);
+}
+
+TEST(World, ImuAtRestReadsGravityAndNoRotation) {
+  const fs::path dir = write_scene("rest", kWallScene);
+  RobotConfig robot;
+  robot.name = "rover";
+  robot.type = RobotType::kDiffDrive;
+  robot.seed = 3;
+  robot.imu.noise_enabled = false;
+  robot.camera.width = 64;
+  robot.camera.height = 48;
+  World world(scenario_in(dir, {robot}, 0.5), nullptr);
+  int samples = 0;
+  core::TimeNs last_frame_ns = 0;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    last_frame_ns = frames[0].t_ns;
+    for (const auto& s : frames[0].imu) {
+      EXPECT_NEAR((s.accel_mps2 - Eigen::Vector3d(0, 0, 9.81)).norm(), 0.0, 1e-3);
+      EXPECT_NEAR(s.gyro_radps.norm(), 0.0, 1e-6);
+      ++samples;
+    }
+  }
+  // 200 Hz from t = 0 up to the last frame (later samples wait for a frame that never comes).
+  EXPECT_EQ(samples, last_frame_ns / 5'000'000 + 1);
+}
+
+// A rig following a smooth, rotating trajectory.
+RobotConfig moving_rig() {
+  RobotConfig robot = still_rig("rig", PoseConfig{0, 0, 1, 0, 0, 0});
+  robot.camera.width = 80;
+  robot.camera.height = 60;
+  robot.waypoints.clear();
+  const double knots[][7] = {{0.0, 0.0, 0.0, 1.0, 0, 0, 0},     {0.8, 0.4, 0.1, 1.1, 5, -4, 20},
+                             {1.6, 0.9, -0.2, 1.2, -6, 8, 45}, {2.4, 1.2, 0.1, 1.0, 3, 0, 80},
+                             {3.2, 1.3, 0.4, 1.1, 0, 5, 100}};
+  for (const auto& k : knots) {
+    WaypointConfig w;
+    w.t_s = k[0];
+    w.x = k[1];
+    w.y = k[2];
+    w.z = k[3];
+    w.roll_deg = k[4];
+    w.pitch_deg = k[5];
+    w.yaw_deg = k[6];
+    robot.waypoints.push_back(w);
+  }
+  return robot;
+}
+
+TEST(World, IntegratingNoiseFreeImuOverOneSecondReproducesTheMotion) {
+  const fs::path dir = write_scene("imu", kWallScene);
+  World world(scenario_in(dir, {moving_rig()}, 2.0), nullptr);
+  // Run to 0.5 s, take the ground-truth state, then integrate the IMU for one second.
+  std::vector<core::ImuSample> samples;
+  Eigen::Isometry3d T_start = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_start = Eigen::Vector3d::Zero();
+  core::TimeNs t_start = -1;
+  Eigen::Isometry3d T_end_true = Eigen::Isometry3d::Identity();
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    if (t_start < 0 && world.time_ns() >= 500'000'000) {
+      t_start = world.time_ns();
+      T_start = world.truth(0).T_world_body;
+      v_start = world.truth(0).v_world_mps;
+      continue;
+    }
+    if (t_start < 0) continue;
+    for (const auto& s : frames[0].imu) samples.push_back(s);
+    if (world.time_ns() >= t_start + 1'000'000'000) {
+      T_end_true = world.truth(0).T_world_body;
+      break;
+    }
+  }
+  ASSERT_GT(samples.size(), 190u);
+  ASSERT_EQ(samples.back().t_ns, world.time_ns());
+  // Trapezoidal strapdown integration between consecutive samples (the first starts at t_start).
+  Eigen::Matrix3d R = T_start.linear();
+  Eigen::Vector3d p = T_start.translation();
+  Eigen::Vector3d v = v_start;
+  const Eigen::Vector3d g(0, 0, -9.81);
+  // samples[k] is at t_start + 5 ms * (k + 1): the sample at t_start went with the frame at t_start.
+  ASSERT_EQ(samples.front().t_ns, t_start + 5'000'000);
+  // The first interval uses the first sample on both ends (first-order there only).
+  core::TimeNs t = t_start;
+  Eigen::Vector3d a_prev = R * samples.front().accel_mps2 + g;
+  Eigen::Vector3d w_prev = samples.front().gyro_radps;
+  for (const auto& s : samples) {
+    const double dt = core::ns_to_seconds(s.t_ns - t);
+    const Eigen::Vector3d w_mid = 0.5 * (w_prev + s.gyro_radps);
+    const Eigen::Matrix3d R_next = R * core::so3_exp(w_mid * dt);
+    const Eigen::Vector3d a_next = R_next * s.accel_mps2 + g;
+    p += v * dt + dt * dt / 6.0 * (2.0 * a_prev + a_next);
+    v += 0.5 * (a_prev + a_next) * dt;
+    R = R_next;
+    a_prev = a_next;
+    w_prev = s.gyro_radps;
+    t = s.t_ns;
+  }
+  EXPECT_LT((p - T_end_true.translation()).norm(), 5e-3);
+  EXPECT_LT(core::rotation_angle_rad(R.transpose() * T_end_true.linear()), 1e-3);
+}
+
+TEST(World, CameraTicksDoNotDriftAndImuAttachesToTheRightFrames) {
+  const fs::path dir = write_scene("ticks", kWallScene);
+  RobotConfig robot = still_rig("cam", PoseConfig{0, 0, 1.25, 0, 0, 0});
+  robot.camera.width = 32;
+  robot.camera.height = 24;
+  robot.camera.rate_hz = 30.0;
+  World world(scenario_in(dir, {robot}, 20.0), nullptr);
+  std::int64_t k = 0;
+  core::TimeNs previous = -1;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step(), ++k) {
+    const core::SensorFrame& f = frames[0];
+    EXPECT_EQ(f.sequence, k);
+    EXPECT_LE(std::abs(static_cast<double>(f.t_ns) - k * 1e9 / 30.0), 0.5e6);  // nearest 1 ms step
+    for (const auto& s : f.imu) {
+      EXPECT_GT(s.t_ns, previous);
+      EXPECT_LE(s.t_ns, f.t_ns);
+    }
+    previous = f.t_ns;
+  }
+  EXPECT_EQ(k, 600);
+}
+
+std::vector<core::SensorFrame> run_all(const ScenarioConfig& scenario) {
+  World world(scenario, nullptr);
+  std::vector<core::SensorFrame> all;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    for (auto& f : frames) all.push_back(std::move(f));
+  }
+  return all;
+}
+
+bool same_bytes(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  return a.empty() || std::equal(a.datastart, a.dataend, b.datastart);
+}
+
+TEST(World, RepeatRunsAreByteIdenticalWithNoiseOn) {
+  const fs::path dir = write_scene("repeat", kWallScene);
+  RobotConfig rig = moving_rig();
+  rig.camera.image_noise.enabled = true;
+  rig.camera.depth_noise.enabled = true;
+  rig.imu.noise_enabled = true;
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.initial_pose = PoseConfig{-1.0, 1.0, 0, 0, 0, -30};
+  rover.camera.width = 64;
+  rover.camera.height = 48;
+  rover.stereo.enabled = true;
+  WaypointConfig goal;
+  goal.x = 0.5;
+  goal.y = 0.0;
+  rover.waypoints = {goal};
+  const ScenarioConfig scenario = scenario_in(dir, {rig, rover}, 1.0);
+  const auto a = run_all(scenario);
+  const auto b = run_all(scenario);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 50u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].t_ns, b[i].t_ns);
+    ASSERT_EQ(a[i].robot_id, b[i].robot_id);
+    ASSERT_TRUE(same_bytes(a[i].image, b[i].image)) << i;
+    ASSERT_TRUE(same_bytes(a[i].depth_m, b[i].depth_m)) << i;
+    ASSERT_TRUE(same_bytes(a[i].right, b[i].right)) << i;
+    ASSERT_EQ(a[i].imu.size(), b[i].imu.size());
+    for (std::size_t k = 0; k < a[i].imu.size(); ++k) {
+      ASSERT_EQ(a[i].imu[k].accel_mps2, b[i].imu[k].accel_mps2);
+      ASSERT_EQ(a[i].imu[k].gyro_radps, b[i].imu[k].gyro_radps);
+    }
+    ASSERT_TRUE(a[i].T_world_cam_gt->isApprox(*b[i].T_world_cam_gt, 0.0));
+  }
+}
+
+TEST(World, DiffDriveRobotFollowsItsPathAndStopsAtWalls) {
+  const fs::path dir = write_scene("drive", kWallScene);
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.seed = 1;
+  rover.camera.width = 32;
+  rover.camera.height = 24;
+  WaypointConfig a;
+  a.x = 1.0;
+  a.y = 0.0;
+  WaypointConfig b;
+  b.x = 4.0;  // behind the wall (face at x = 2.15): the robot must stop at it
+  b.y = 0.0;
+  rover.waypoints = {a, b};
+  World world(scenario_in(dir, {rover}, 12.0), nullptr);
+  int contacts = 0;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    contacts += world.truth(0).contacts_with_scene > 0 ? 1 : 0;
+  }
+  const double x = world.truth(0).T_world_body.translation().x();
+  EXPECT_NEAR(x, 2.15 - rover.radius_m, 0.02);
+  EXPECT_GT(contacts, 0);
+}
+
+TEST(World, SurfacePointsLieOnTheSceneAndExcludeRobots) {
+  const fs::path dir = write_scene(
+      "surface", "    <geom type=\"box\" pos=\"1 2 0.5\" size=\"0.5 0.25 0.5\" rgba=\"1 1 1 1\"/>\n");
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.initial_pose = PoseConfig{-2, 0, 0, 0, 0, 0};
+  rover.camera.enabled = false;
+  World world(scenario_in(dir, {rover}), nullptr);
+  const auto points = world.surface_points(0.05);
+  // Area 2 * (1*0.5 + 1*1 + 0.5*1) = 4 m^2 -> about 1600 points at 5 cm.
+  EXPECT_NEAR(static_cast<double>(points.size()), 1600.0, 200.0);
+  for (const auto& p : points) {
+    const Eigen::Vector3d q = (p.cast<double>() - Eigen::Vector3d(1, 2, 0.5)).cwiseAbs();
+    const Eigen::Vector3d half(0.5, 0.25, 0.5);
+    ASSERT_TRUE((q.array() <= half.array() + 1e-5).all());
+    ASSERT_LT((half - q).minCoeff(), 1e-5);  // on a face
+  }
+}
+
+TEST(World, MissingOrMalformedSceneNamesTheFile) {
+  const fs::path dir = write_scene("bad", kWallScene);
+  std::ofstream(dir / "broken.xml") << "<mujoco><worldbody><geom type=\"box\" size=\"1\"";
+  ScenarioConfig scenario = scenario_in(dir, {still_rig("cam", PoseConfig{})});
+  scenario.scene = "missing.xml";
+  try {
+    World world(scenario, nullptr);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.xml"), std::string::npos) << e.what();
+  }
+  scenario.scene = "broken.xml";
+  try {
+    World world(scenario, nullptr);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("broken.xml"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Scenario, LoadsAndRejectsBadFiles) {
+  const fs::path dir = write_scene("scenario", kWallScene);
+  auto write = [&](const std::string& text) {
+    std::ofstream(dir / "s.yaml") << text;
+    return dir / "s.yaml";
+  };
+  const auto good = load_scenario(write(
+      "scene: scene.xml\nseed: 4\nrobots:\n  - {name: a, initial_pose: {x: 0}}\n  - {name: b, initial_pose: {x: 1}}\n"));
+  ASSERT_EQ(good.robots.size(), 2u);
+  EXPECT_EQ(good.robots[0].seed, 4001);
+  EXPECT_EQ(good.robots[1].seed, 4002);
+  auto error_of = [&](const std::string& text) -> std::string {
+    try {
+      load_scenario(write(text));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: a}\n  - {name: b, initial_pose: {x: 0.1}}\n")
+                .find("robots[1].initial_pose: robot 'b' starts overlapping robot 'a'"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: a, type: tank}\n").find("robots[0].type: unknown value 'tank'"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: nowhere.xml\nrobots:\n  - {name: a}\n").find("s.yaml:scene: scene file"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: a}\n  - {name: a, initial_pose: {x: 3}}\n")
+                .find("duplicate robot name 'a'"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots: []\n").find("at least one robot"), std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, waypoints: [{t_s: 1}]}\n")
+                .find("at least 2 timed waypoints"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace fleetslam::sim
