@@ -14,7 +14,8 @@ if [[ ! -d "$data" ]]; then
   exit 1
 fi
 "$cli" dataset info "$data/tum/rgbd_dataset_freiburg1_rpy_200"
-"$cli" dataset info "$data/euroc/V1_01_easy_micro"
+"$cli" dataset info "$data/euroc/V1_01_easy_micro" \
+  --groundtruth "$data/euroc/V1_01_easy_micro/groundtruth_leftcam_tum.txt"
 "$cli" eval --gt "$data/trajectories/fr2_desk_groundtruth.txt" --est "$data/trajectories/fr2_desk_ORB.txt" \
   --align se3 --out "$out/eval_fr2_desk_orb"
 "$cli" eval --gt "$data/trajectories/freiburg1_xyz-groundtruth.txt" --est "$data/trajectories/freiburg1_xyz-ORB_kf_mono.txt" \
