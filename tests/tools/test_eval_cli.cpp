@@ -173,6 +173,9 @@ struct BadRun {
   const char* expected;  // in the single output line, besides the file name
 };
 
+// ctest shows the case by its name rather than the struct's bytes.
+void PrintTo(const BadRun& bad, std::ostream* out) { *out << bad.name; }
+
 class EvalCliBadInput : public ::testing::TestWithParam<BadRun> {};
 
 TEST_P(EvalCliBadInput, ExitsNonZeroWithOneLineNamingTheFile) {
