@@ -1,0 +1,107 @@
+#pragma once
+// Noise models for rendered images, each with its own seeded generator.
+//  - Depth (Kinect-like, after Nguyen, Izadi & Lovell 2012): axial noise growing with distance,
+//    sigma_z = sigma_base_m + sigma_quadratic * (z - 0.4)^2, dropout at grazing incidence (angle between
+//    the surface normal, estimated from the depth image, and the viewing ray) and near depth edges,
+//    and a valid range. Invalid depth is 0.
+//    Normals come from the clean input depth back-projected with the camera (its gradient by central
+//    differences, one-sided towards the neighbour nearer in depth beside holes and depth edges); edges are 4-neighbour jumps above edge_jump_m
+//    between valid pixels, widened by edge_band_px (square neighbourhood). The range applies to the
+//    true depth. Per pixel, row-major: range, edge dropout (one uniform draw per in-range band pixel),
+//    grazing dropout, then one Gaussian draw for each kept pixel.
+//  - Image: additive Gaussian noise on 8-bit intensities, and optional slow exposure (gain) changes:
+//    out = saturate(round(gain * in + sigma_intensity * n)), log gain an Ornstein-Uhlenbeck process
+//    (stationary std exposure_sigma, time constant exposure_correlation_s) starting at 0.
+// Gaussian pixel noise is drawn from a 2^16-entry quantile table of N(0, 1) (four samples per 64-bit
+// draw; tails cut at ~4.3 sigma) to keep a 640x480 frame at a few milliseconds.
+// Disabled models return an unchanged deep copy and draw nothing.
+
+#include <cstdint>
+#include <random>
+
+#include <opencv2/core/mat.hpp>
+
+#include "fleetslam/core/camera.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/time.hpp"
+
+namespace fleetslam::sim {
+
+struct DepthNoiseConfig {
+  bool enabled = true;
+  double sigma_base_m = 0.0012;
+  double sigma_quadratic = 0.0019;     // metres per metre^2
+  double min_depth_m = 0.3;
+  double max_depth_m = 8.0;
+  double grazing_dropout_deg = 78.0;   // incidence angles beyond this are dropped
+  double edge_jump_m = 0.1;            // a neighbour this much farther or nearer marks a depth edge
+  int edge_band_px = 1;                // pixels within this distance of an edge ...
+  double edge_dropout_probability = 0.5;  // ... are dropped with this probability
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("sigma_base_m", sigma_base_m, core::Limits<double>{0.0, 1.0});
+    v("sigma_quadratic", sigma_quadratic, core::Limits<double>{0.0, 1.0});
+    v("min_depth_m", min_depth_m, core::Limits<double>{0.0, 100.0});
+    v("max_depth_m", max_depth_m, core::Limits<double>{0.01, 1000.0});
+    v("grazing_dropout_deg", grazing_dropout_deg, core::Limits<double>{0.0, 90.0});
+    v("edge_jump_m", edge_jump_m, core::Limits<double>{0.0, 100.0});
+    v("edge_band_px", edge_band_px, core::Limits<int>{0, 20});
+    v("edge_dropout_probability", edge_dropout_probability, core::Limits<double>{0.0, 1.0});
+  }
+};
+
+class DepthNoiseModel {
+ public:
+  // Throws std::invalid_argument when min_depth_m >= max_depth_m.
+  DepthNoiseModel(const DepthNoiseConfig& config, std::uint64_t seed);
+  // depth_m: CV_32FC1 metres (0 = none) seen by `camera` (undistorted pinhole). Returns a new image.
+  // Throws std::invalid_argument on another type or a size other than the camera's.
+  cv::Mat apply(const cv::Mat& depth_m, const core::PinholeCamera& camera);
+  // Standard deviation of the axial noise at a depth (the model's sigma_z).
+  double axial_sigma_m(double depth_m) const;
+
+ private:
+  DepthNoiseConfig config_;
+  std::mt19937_64 rng_;
+};
+
+struct ImageNoiseConfig {
+  bool enabled = true;
+  double sigma_intensity = 2.0;       // Gaussian noise, 8-bit levels
+  bool exposure_changes = false;
+  double exposure_sigma = 0.15;       // std of the log gain
+  double exposure_correlation_s = 2.0;  // time constant of the gain's random process
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("sigma_intensity", sigma_intensity, core::Limits<double>{0.0, 64.0});
+    v("exposure_changes", exposure_changes);
+    v("exposure_sigma", exposure_sigma, core::Limits<double>{0.0, 2.0});
+    v("exposure_correlation_s", exposure_correlation_s, core::Limits<double>{0.01, 1000.0});
+  }
+};
+
+class ImageNoiseModel {
+ public:
+  // Throws std::invalid_argument when exposure_correlation_s is not positive.
+  ImageNoiseModel(const ImageNoiseConfig& config, std::uint64_t seed);
+  // image: CV_8UC1 or CV_8UC3. Returns a new image. t_ns drives the exposure process (call in time order;
+  // an earlier t_ns than the previous call's throws std::invalid_argument, as does another image type).
+  cv::Mat apply(const cv::Mat& image, core::TimeNs t_ns);
+  double current_gain() const { return gain_; }
+
+ private:
+  void advance_exposure(core::TimeNs t_ns);
+
+  ImageNoiseConfig config_;
+  std::mt19937_64 rng_;
+  double log_gain_ = 0.0;
+  double gain_ = 1.0;
+  core::TimeNs last_t_ns_ = 0;
+  bool has_last_ = false;
+};
+
+}  // namespace fleetslam::sim

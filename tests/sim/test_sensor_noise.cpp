@@ -1,0 +1,335 @@
+// Depth and image noise models on synthetic images with known geometry: axial noise against
+// sigma_z(z) of Nguyen et al. 2012 on fronto-parallel planes, the valid range, grazing dropout against
+// the analytic incidence angle of a floor, dropout near a depth step, intensity noise and saturation,
+// the exposure process, repeatability from the seed, and the cost of a 640x480 frame.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "fleetslam/sim/sensor_noise.hpp"
+
+namespace fleetslam::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+core::PinholeCamera vga_camera() { return core::PinholeCamera(640, 480, 525.0, 525.0, 319.5, 239.5); }
+
+cv::Mat constant_depth(const core::PinholeCamera& camera, float depth_m) {
+  return cv::Mat(camera.height(), camera.width(), CV_32FC1, cv::Scalar(depth_m));
+}
+
+// A horizontal floor height_m below a level camera (y down): rows below the horizon see it at
+// z = height_m / y_n, rows above see nothing (0).
+cv::Mat floor_depth(const core::PinholeCamera& camera, double height_m) {
+  cv::Mat depth = constant_depth(camera, 0.0f);
+  for (int v = 0; v < depth.rows; ++v) {
+    const double yn = (v - camera.cy()) / camera.fy();
+    if (yn > 0.0) depth.row(v).setTo(cv::Scalar(height_m / yn));
+  }
+  return depth;
+}
+
+// Angle between the floor normal (0, 1, 0) and the ray through (u, v), in degrees.
+double floor_incidence_deg(const core::PinholeCamera& camera, int u, int v) {
+  const Eigen::Vector3d ray((u - camera.cx()) / camera.fx(), (v - camera.cy()) / camera.fy(), 1.0);
+  return std::acos(std::abs(ray.y()) / ray.norm()) * 180.0 / kPi;
+}
+
+DepthNoiseConfig noise_only_config() {
+  DepthNoiseConfig config;
+  config.grazing_dropout_deg = 90.0;
+  config.edge_dropout_probability = 0.0;
+  return config;
+}
+
+struct ErrorStats {
+  double mean = 0.0;
+  double std = 0.0;
+  int valid = 0;
+};
+
+ErrorStats error_stats(const cv::Mat& noisy, const cv::Mat& truth) {
+  double sum = 0.0, sum_sq = 0.0;
+  int valid = 0;
+  for (int v = 0; v < noisy.rows; ++v) {
+    for (int u = 0; u < noisy.cols; ++u) {
+      if (noisy.at<float>(v, u) == 0.0f) continue;
+      const double e = double{noisy.at<float>(v, u)} - double{truth.at<float>(v, u)};
+      sum += e;
+      sum_sq += e * e;
+      ++valid;
+    }
+  }
+  const double mean = sum / valid;
+  return {mean, std::sqrt(sum_sq / valid - mean * mean), valid};
+}
+
+TEST(DepthNoise, AxialNoiseFollowsTheKinectModel) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseModel model(noise_only_config(), 1);
+  for (double z : {0.5, 1.0, 2.0, 4.0, 6.0}) {
+    const cv::Mat truth = constant_depth(camera, static_cast<float>(z));
+    const ErrorStats stats = error_stats(model.apply(truth, camera), truth);
+    const double expected = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
+    EXPECT_DOUBLE_EQ(model.axial_sigma_m(z), expected);
+    std::printf("depth %.1f m: std %.5f m, model %.5f m, ratio %.4f, mean %+.2e m\n", z, stats.std, expected,
+                stats.std / expected, stats.mean);
+    EXPECT_EQ(stats.valid, camera.width() * camera.height()) << "z " << z;
+    // 307200 samples: 0.13 % spread of the std estimate, and float resolution at 6 m is 5e-7 m.
+    EXPECT_NEAR(stats.std / expected, 1.0, 0.01) << "z " << z << " std " << stats.std << " expected " << expected;
+    EXPECT_LT(std::abs(stats.mean), 5.0 * expected / std::sqrt(static_cast<double>(stats.valid))) << "z " << z;
+  }
+}
+
+TEST(DepthNoise, OutOfRangeDepthIsDropped) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseModel model(DepthNoiseConfig{}, 2);
+  EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 0.2f), camera)), 0);
+  EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 9.0f), camera)), 0);
+  EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 0.0f), camera)), 0);
+  EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, std::nanf("")), camera)), 0);
+  EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 3.0f), camera)), camera.width() * camera.height());
+}
+
+TEST(DepthNoise, FrontoParallelPlaneIsKept) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseModel model(DepthNoiseConfig{}, 3);  // every dropout on, defaults
+  for (float z : {0.5f, 2.0f, 7.5f}) {
+    EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, z), camera)), camera.width() * camera.height());
+  }
+}
+
+TEST(DepthNoise, GrazingFloorIsDroppedBeyondTheAngle) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseConfig config;
+  config.edge_dropout_probability = 0.0;
+  config.max_depth_m = 20.0;
+  DepthNoiseModel model(config, 4);
+  const cv::Mat truth = floor_depth(camera, 0.5);
+  const cv::Mat noisy = model.apply(truth, camera);
+  int beyond = 0, beyond_kept = 0, within = 0, within_kept = 0;
+  for (int v = 0; v < truth.rows; ++v) {
+    for (int u = 0; u < truth.cols; ++u) {
+      const float z = truth.at<float>(v, u);
+      if (double{z} < config.min_depth_m || double{z} > config.max_depth_m) continue;
+      const double angle = floor_incidence_deg(camera, u, v);
+      const bool kept = noisy.at<float>(v, u) != 0.0f;
+      if (angle > config.grazing_dropout_deg + 0.5) {
+        ++beyond;
+        beyond_kept += kept ? 1 : 0;
+      } else if (angle < config.grazing_dropout_deg - 0.5) {
+        ++within;
+        within_kept += kept ? 1 : 0;
+      }
+    }
+  }
+  std::printf("grazing floor: kept %d of %d beyond %.0f deg, %d of %d within\n", beyond_kept, beyond,
+              config.grazing_dropout_deg, within_kept, within);
+  ASSERT_GT(beyond, 10000);
+  ASSERT_GT(within, 10000);
+  EXPECT_EQ(beyond_kept, 0);
+  EXPECT_EQ(within_kept, within);
+}
+
+// Left half at 1 m, right half at 2 m: the step lies between columns 319 and 320.
+cv::Mat step_depth(const core::PinholeCamera& camera) {
+  cv::Mat depth = constant_depth(camera, 1.0f);
+  depth.colRange(camera.width() / 2, camera.width()).setTo(cv::Scalar(2.0f));
+  return depth;
+}
+
+std::vector<double> kept_fraction_per_column(const cv::Mat& noisy) {
+  std::vector<double> fraction(static_cast<std::size_t>(noisy.cols));
+  for (int u = 0; u < noisy.cols; ++u) {
+    fraction[static_cast<std::size_t>(u)] = cv::countNonZero(noisy.col(u)) / static_cast<double>(noisy.rows);
+  }
+  return fraction;
+}
+
+TEST(DepthNoise, DepthStepDropsTheBandAroundIt) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseConfig config;
+  config.edge_band_px = 2;
+  config.edge_dropout_probability = 1.0;
+  DepthNoiseModel model(config, 5);
+  const std::vector<double> kept = kept_fraction_per_column(model.apply(step_depth(camera), camera));
+  // Edge pixels are columns 319 and 320; the band widens them by 2 on each side.
+  for (int u = 0; u < camera.width(); ++u) {
+    const bool in_band = u >= 317 && u <= 322;
+    EXPECT_DOUBLE_EQ(kept[static_cast<std::size_t>(u)], in_band ? 0.0 : 1.0) << "column " << u;
+  }
+}
+
+TEST(DepthNoise, EdgeDropoutHasItsProbability) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseModel model(DepthNoiseConfig{}, 6);  // band 1 px, probability 0.5
+  const std::vector<double> kept = kept_fraction_per_column(model.apply(step_depth(camera), camera));
+  double band_kept = 0.0;
+  for (int u = 318; u <= 321; ++u) band_kept += kept[static_cast<std::size_t>(u)] / 4.0;
+  std::printf("edge band kept fraction %.4f (probability 0.5)\n", band_kept);
+  // 4 x 480 Bernoulli(0.5) draws: std of the fraction 0.011.
+  EXPECT_NEAR(band_kept, 0.5, 0.05);
+  EXPECT_DOUBLE_EQ(kept[316], 1.0);
+  EXPECT_DOUBLE_EQ(kept[323], 1.0);
+}
+
+TEST(DepthNoise, SameSeedSameImageAndDisabledIsACopy) {
+  const core::PinholeCamera camera = vga_camera();
+  const cv::Mat truth = step_depth(camera);
+  DepthNoiseModel a(DepthNoiseConfig{}, 9), b(DepthNoiseConfig{}, 9), c(DepthNoiseConfig{}, 10);
+  const cv::Mat noisy_a = a.apply(truth, camera);
+  EXPECT_EQ(cv::norm(noisy_a, b.apply(truth, camera), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(noisy_a, c.apply(truth, camera), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(noisy_a, a.apply(truth, camera), cv::NORM_INF), 0.0);  // the stream moves on
+
+  DepthNoiseConfig off;
+  off.enabled = false;
+  DepthNoiseModel disabled(off, 9);
+  const cv::Mat copy = disabled.apply(truth, camera);
+  EXPECT_EQ(cv::norm(copy, truth, cv::NORM_INF), 0.0);
+  EXPECT_NE(copy.data, truth.data);
+}
+
+TEST(DepthNoise, RejectsBadInput) {
+  DepthNoiseConfig config;
+  config.min_depth_m = 5.0;
+  config.max_depth_m = 5.0;
+  EXPECT_THROW(DepthNoiseModel(config, 1), std::invalid_argument);
+  DepthNoiseModel model(DepthNoiseConfig{}, 1);
+  const core::PinholeCamera camera = vga_camera();
+  EXPECT_THROW(model.apply(cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)), camera), std::invalid_argument);
+  EXPECT_THROW(model.apply(cv::Mat(240, 320, CV_32FC1, cv::Scalar(1.0f)), camera), std::invalid_argument);
+}
+
+ErrorStats intensity_error(const cv::Mat& noisy, const cv::Mat& clean) {
+  cv::Mat diff;
+  noisy.convertTo(diff, CV_64F);
+  cv::Mat clean64;
+  clean.convertTo(clean64, CV_64F);
+  diff -= clean64;
+  cv::Scalar mean, std;
+  cv::meanStdDev(diff.reshape(1), mean, std);
+  return {mean[0], std[0], static_cast<int>(diff.total() * diff.channels())};
+}
+
+TEST(ImageNoise, IntensityNoiseHasItsStandardDeviation) {
+  ImageNoiseModel model(ImageNoiseConfig{}, 1);  // sigma 2 levels
+  for (int type : {CV_8UC1, CV_8UC3}) {
+    const cv::Mat clean(480, 640, type, cv::Scalar::all(128));
+    const ErrorStats stats = intensity_error(model.apply(clean, 0), clean);
+    // Rounding to integers adds 1/12 level^2 of variance.
+    const double expected = std::sqrt(2.0 * 2.0 + 1.0 / 12.0);
+    std::printf("intensity noise (%d channels): std %.4f, expected %.4f\n", CV_MAT_CN(type), stats.std, expected);
+    EXPECT_NEAR(stats.std / expected, 1.0, 0.02) << "std " << stats.std << " expected " << expected;
+    EXPECT_LT(std::abs(stats.mean), 0.02);
+  }
+}
+
+TEST(ImageNoise, SaturatesInsteadOfWrapping) {
+  ImageNoiseModel model(ImageNoiseConfig{}, 2);
+  const cv::Mat white(480, 640, CV_8UC1, cv::Scalar(255));
+  const cv::Mat black(480, 640, CV_8UC1, cv::Scalar(0));
+  const cv::Mat noisy_white = model.apply(white, 0);
+  const cv::Mat noisy_black = model.apply(black, 0);
+  double min_white = 0.0, max_black = 0.0;
+  cv::minMaxLoc(noisy_white, &min_white);
+  cv::minMaxLoc(noisy_black, nullptr, &max_black);
+  EXPECT_GE(min_white, 240.0);
+  EXPECT_LE(max_black, 15.0);
+  // 255 stays 255 when the noise rounds to >= 0: P(n > -0.5) = Phi(0.25) = 0.599.
+  const double at_255 = cv::countNonZero(noisy_white == 255) / static_cast<double>(white.total());
+  const double at_0 = cv::countNonZero(noisy_black == 0) / static_cast<double>(black.total());
+  std::printf("saturation: %.4f at 255, %.4f at 0 (expected 0.599)\n", at_255, at_0);
+  EXPECT_NEAR(at_255, 0.599, 0.01);
+  EXPECT_NEAR(at_0, 0.599, 0.01);
+}
+
+TEST(ImageNoise, ExposureGainIsAStationaryLogNormalProcess) {
+  ImageNoiseConfig config;
+  config.sigma_intensity = 0.0;
+  config.exposure_changes = true;
+  ImageNoiseModel model(config, 3);
+  const cv::Mat clean(4, 4, CV_8UC1, cv::Scalar(100));
+  std::vector<double> log_gains;
+  constexpr core::TimeNs kFrameNs = core::kNsPerSecond;  // 1 s frames, tau 2 s: correlation 0.61
+  for (int k = 0; k < 40'000; ++k) {
+    const cv::Mat noisy = model.apply(clean, k * kFrameNs);
+    if (k == 0) {
+      EXPECT_EQ(model.current_gain(), 1.0);
+    }
+    EXPECT_NEAR(noisy.at<std::uint8_t>(0, 0), 100.0 * model.current_gain(), 0.5 + 1e-4);
+    log_gains.push_back(std::log(model.current_gain()));
+  }
+  double sum = 0.0, sum_sq = 0.0, lag1 = 0.0;
+  for (std::size_t k = 0; k < log_gains.size(); ++k) {
+    sum += log_gains[k];
+    sum_sq += log_gains[k] * log_gains[k];
+    if (k > 0) lag1 += log_gains[k] * log_gains[k - 1];
+  }
+  const double n = static_cast<double>(log_gains.size());
+  const double variance = sum_sq / n - (sum / n) * (sum / n);
+  std::printf("exposure: log gain std %.4f (model %.2f), lag-1 correlation %.4f (model %.4f)\n", std::sqrt(variance),
+              config.exposure_sigma, lag1 / sum_sq, std::exp(-0.5));
+  EXPECT_NEAR(std::sqrt(variance) / config.exposure_sigma, 1.0, 0.04);
+  EXPECT_NEAR(lag1 / sum_sq, std::exp(-0.5), 0.03);
+
+  ImageNoiseModel steady(ImageNoiseConfig{}, 3);
+  steady.apply(clean, 0);
+  steady.apply(clean, 10 * kFrameNs);
+  EXPECT_EQ(steady.current_gain(), 1.0);
+}
+
+TEST(ImageNoise, SameSeedSameImageAndDisabledIsACopy) {
+  cv::Mat clean(480, 640, CV_8UC3);
+  cv::randu(clean, cv::Scalar::all(0), cv::Scalar::all(256));
+  ImageNoiseModel a(ImageNoiseConfig{}, 4), b(ImageNoiseConfig{}, 4), c(ImageNoiseConfig{}, 5);
+  const cv::Mat noisy_a = a.apply(clean, 0);
+  EXPECT_EQ(cv::norm(noisy_a, b.apply(clean, 0), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(noisy_a, c.apply(clean, 0), cv::NORM_INF), 0.0);
+
+  ImageNoiseConfig off;
+  off.enabled = false;
+  ImageNoiseModel disabled(off, 4);
+  const cv::Mat copy = disabled.apply(clean, 0);
+  EXPECT_EQ(cv::norm(copy, clean, cv::NORM_INF), 0.0);
+  EXPECT_NE(copy.data, clean.data);
+}
+
+TEST(ImageNoise, RejectsBadInput) {
+  ImageNoiseModel model(ImageNoiseConfig{}, 1);
+  EXPECT_THROW(model.apply(cv::Mat(4, 4, CV_32FC1, cv::Scalar(0)), 0), std::invalid_argument);
+  model.apply(cv::Mat(4, 4, CV_8UC1, cv::Scalar(0)), 100);
+  EXPECT_THROW(model.apply(cv::Mat(4, 4, CV_8UC1, cv::Scalar(0)), 99), std::invalid_argument);
+}
+
+// Reports the cost per 640x480 frame; asserts only a generous bound (the machine is shared).
+TEST(SensorNoise, VgaFrameCostsAFewMilliseconds) {
+  const core::PinholeCamera camera = vga_camera();
+  const cv::Mat depth = floor_depth(camera, 0.5) + step_depth(camera);
+  cv::Mat rgb(480, 640, CV_8UC3);
+  cv::randu(rgb, cv::Scalar::all(0), cv::Scalar::all(256));
+  DepthNoiseModel depth_model(DepthNoiseConfig{}, 1);
+  ImageNoiseModel image_model(ImageNoiseConfig{}, 1);
+  constexpr int kFrames = 30;
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  for (int k = 0; k < kFrames; ++k) depth_model.apply(depth, camera);
+  const auto t1 = Clock::now();
+  for (int k = 0; k < kFrames; ++k) image_model.apply(rgb, k * 33'000'000);
+  const auto t2 = Clock::now();
+  const double depth_ms = std::chrono::duration<double, std::milli>(t1 - t0).count() / kFrames;
+  const double rgb_ms = std::chrono::duration<double, std::milli>(t2 - t1).count() / kFrames;
+  std::printf("per 640x480 frame: depth %.2f ms, rgb %.2f ms\n", depth_ms, rgb_ms);
+  EXPECT_LT(depth_ms + rgb_ms, 100.0);
+}
+
+}  // namespace
+}  // namespace fleetslam::sim
