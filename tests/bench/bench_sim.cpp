@@ -1,0 +1,133 @@
+// Camera frames per second of the simulator's full sensor pipeline (physics between ticks, RGB +
+// metric depth, image and depth noise, IMU, ground truth) against bare mjr_render + mjr_readPixels of
+// the same scene and camera. Usage:
+//   bench_sim [--scenario scenes/office/office_2robots.yaml] [google-benchmark flags]
+// The first robot's camera is measured; its resolution is the scenario's (override: --width/--height).
+
+#include <GL/osmesa.h>
+#include <benchmark/benchmark.h>
+#include <mujoco/mujoco.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fleetslam/sim/scenario.hpp"
+#include "fleetslam/sim/world.hpp"
+
+namespace {
+
+std::string g_scenario = FLEETSLAM_SOURCE_DIR "/scenes/office/office_2robots.yaml";
+int g_width = 0;
+int g_height = 0;
+
+fleetslam::sim::ScenarioConfig one_robot_scenario() {
+  auto scenario = fleetslam::sim::load_scenario(g_scenario);
+  scenario.robots.resize(1);
+  if (g_width > 0) scenario.robots[0].camera.width = g_width;
+  if (g_height > 0) scenario.robots[0].camera.height = g_height;
+  scenario.duration_s = 1e5;
+  return scenario;
+}
+
+// The full pipeline: World::step() renders one frame per call (one robot).
+void BM_SensorPipeline(benchmark::State& state) {
+  fleetslam::sim::World world(one_robot_scenario(), nullptr);
+  for (auto _ : state) {
+    auto frames = world.step();
+    benchmark::DoNotOptimize(frames);
+  }
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+// Bare rendering: the scene with one fixed camera placed where the robot's camera starts.
+void BM_BareRender(benchmark::State& state) {
+  const auto scenario = one_robot_scenario();
+  fleetslam::sim::World world(scenario, nullptr);  // for the camera's start pose only
+  const auto& camera = scenario.robots[0].camera;
+  const Eigen::Isometry3d T_world_cam = world.truth(0).T_world_body * world.T_body_cam(0);
+  const Eigen::Matrix3d R_mj = T_world_cam.linear() * Eigen::Vector3d(1, -1, -1).asDiagonal();
+  const Eigen::Quaterniond q(R_mj);
+  const Eigen::Vector3d p = T_world_cam.translation();
+  const std::string scene = std::filesystem::absolute(scenario.scene_path()).string();
+  const std::string xml = "<mujoco><include file=\"" + scenario.scene_path().filename().string() +
+                          "\"/><visual><global offwidth=\"" + std::to_string(camera.width) + "\" offheight=\"" +
+                          std::to_string(camera.height) + "\"/><quality offsamples=\"0\"/></visual><worldbody>" +
+                          "<camera name=\"bench\" pos=\"" + std::to_string(p.x()) + " " + std::to_string(p.y()) +
+                          " " + std::to_string(p.z()) + "\" quat=\"" + std::to_string(q.w()) + " " +
+                          std::to_string(q.x()) + " " + std::to_string(q.y()) + " " + std::to_string(q.z()) +
+                          "\" fovy=\"" + std::to_string(camera.fovy_deg) + "\"/></worldbody></mujoco>";
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  const std::string name = std::filesystem::path(scene).parent_path().string() + "/__bench.xml";
+  mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(xml.size()));
+  std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), name.c_str())], xml.data(), xml.size());
+  char error[1000] = "";
+  mjModel* m = mj_loadXML(name.c_str(), vfs.get(), error, sizeof error);
+  mj_deleteVFS(vfs.get());
+  if (m == nullptr) {
+    state.SkipWithError(error);
+    return;
+  }
+  mjData* d = mj_makeData(m);
+  mj_forward(m, d);
+  OSMesaContext gl = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
+  std::vector<unsigned char> buffer(static_cast<std::size_t>(camera.width) * camera.height * 4);
+  OSMesaMakeCurrent(gl, buffer.data(), GL_UNSIGNED_BYTE, camera.width, camera.height);
+  mjvScene scn;
+  mjv_defaultScene(&scn);
+  mjv_makeScene(m, &scn, 4000);
+  mjrContext con;
+  mjr_defaultContext(&con);
+  mjr_makeContext(m, &con, mjFONTSCALE_100);
+  mjr_setBuffer(mjFB_OFFSCREEN, &con);
+  mjvOption opt;
+  mjv_defaultOption(&opt);
+  mjvCamera cam;
+  mjv_defaultCamera(&cam);
+  cam.type = mjCAMERA_FIXED;
+  cam.fixedcamid = mj_name2id(m, mjOBJ_CAMERA, "bench");
+  const mjrRect viewport{0, 0, camera.width, camera.height};
+  std::vector<unsigned char> rgb(static_cast<std::size_t>(camera.width) * camera.height * 3);
+  std::vector<float> depth(static_cast<std::size_t>(camera.width) * camera.height);
+  for (auto _ : state) {
+    mjv_updateScene(m, d, &opt, nullptr, &cam, mjCAT_ALL, &scn);
+    scn.flags[mjRND_SHADOW] = camera.shadows ? 1 : 0;
+    mjr_render(viewport, &scn, &con);
+    mjr_readPixels(rgb.data(), depth.data(), viewport, &con);
+    benchmark::DoNotOptimize(rgb.data());
+  }
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  mjr_freeContext(&con);
+  mjv_freeScene(&scn);
+  OSMesaDestroyContext(gl);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+
+}  // namespace
+
+BENCHMARK(BM_BareRender)->Unit(benchmark::kMillisecond)->MinTime(3.0);
+BENCHMARK(BM_SensorPipeline)->Unit(benchmark::kMillisecond)->MinTime(3.0);
+
+int main(int argc, char** argv) {
+  std::vector<char*> rest;
+  for (int i = 0; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--scenario" && i + 1 < argc) {
+      g_scenario = argv[++i];
+    } else if (arg == "--width" && i + 1 < argc) {
+      g_width = std::stoi(argv[++i]);
+    } else if (arg == "--height" && i + 1 < argc) {
+      g_height = std::stoi(argv[++i]);
+    } else {
+      rest.push_back(argv[i]);
+    }
+  }
+  int rest_count = static_cast<int>(rest.size());
+  benchmark::Initialize(&rest_count, rest.data());
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
