@@ -12,6 +12,8 @@ packages=(
   libcli11-dev libgtest-dev libgmock-dev
   # sim (MuJoCo 2.2 rendering off-screen through OSMesa)
   libmujoco-dev libosmesa6-dev libqhull-dev  # mujocoConfig.cmake names libqhull_r headers
+  # slam (bundle adjustment, pose optimisation)
+  libceres-dev
 )
 
 missing=()

@@ -1,0 +1,88 @@
+#pragma once
+// A frame as the agent sees it: ORB features with undistorted coordinates, per-feature depth (RGB-D or
+// stereo), a grid for radius search, and the map points its features are matched to.
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+
+#include "fleetslam/core/camera.hpp"
+#include "fleetslam/core/time.hpp"
+
+namespace fleetslam::slam {
+
+using MapPointId = std::int64_t;
+using KeyframeId = std::int64_t;
+inline constexpr MapPointId kNoMapPoint = -1;
+
+// Scale of each pyramid level: scale[l] = scale_factor^l; sigma2[l] = scale[l]^2 (the variance of a
+// keypoint's position at that level, in level-0 pixels^2).
+struct ScalePyramid {
+  int levels = 8;
+  double scale_factor = 1.2;
+  std::vector<double> scale;
+  std::vector<double> inv_scale;
+  std::vector<double> sigma2;
+  std::vector<double> inv_sigma2;
+
+  static ScalePyramid make(int levels, double scale_factor);
+};
+
+// Buckets of feature indices over the undistorted image for radius queries (ORB-SLAM's 64x48 grid).
+class FeatureGrid {
+ public:
+  FeatureGrid() = default;
+  // Features outside [min_u, max_u) x [min_v, max_v) are not indexed.
+  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, double max_u, double min_v, double max_v,
+              int cols = 64, int rows = 48);
+
+  // Indices of features within radius_px of (u, v) (square test then exact distance), optionally only
+  // those whose level is in [min_level, max_level] (-1: no bound). Sorted ascending.
+  std::vector<int> features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
+                                    double u, double v, double radius_px, int min_level = -1,
+                                    int max_level = -1) const;
+  bool empty() const { return cells_.empty(); }
+
+ private:
+  int cols_ = 0;
+  int rows_ = 0;
+  double min_u_ = 0.0, min_v_ = 0.0;
+  double cell_w_ = 1.0, cell_h_ = 1.0;
+  std::vector<std::vector<int>> cells_;
+};
+
+struct Frame {
+  std::int64_t id = -1;
+  core::TimeNs t_ns = 0;
+  core::PinholeCamera camera;  // distortion-free intrinsics the undistorted coordinates live in
+  ScalePyramid pyramid;
+  double bf = 0.0;             // baseline * fx (stereo: real; RGB-D: virtual); 0 monocular
+  double close_depth_m = 0.0;  // features nearer than this are "close" (ORB-SLAM ThDepth in metres)
+
+  std::vector<cv::KeyPoint> keypoints;  // as detected in the raw image (octave = level, angle in degrees)
+  std::vector<Eigen::Vector2d> uv;      // undistorted pixel coordinates
+  std::vector<int> level;               // pyramid level of each feature
+  cv::Mat descriptors;                  // N x 32, CV_8UC1 (rBRIEF)
+  std::vector<double> depth_m;          // depth along the optical axis; <= 0 when unknown
+  std::vector<double> u_right;          // right-image u (stereo, or virtual for RGB-D); < 0 when unknown
+  FeatureGrid grid;
+
+  std::vector<MapPointId> map_points;   // per feature, kNoMapPoint when unmatched
+  std::vector<bool> outlier;            // per feature, set by pose optimisation
+
+  std::optional<Eigen::Isometry3d> T_world_cam;  // estimated pose, once known
+
+  std::size_t size() const { return uv.size(); }
+  bool has_depth(std::size_t i) const { return depth_m[i] > 0.0; }
+  // Camera-frame point of feature i from its depth; nullopt without depth.
+  std::optional<Eigen::Vector3d> unproject(std::size_t i) const;
+  // Resets map_points/outlier to one unmatched entry per feature and builds the grid.
+  void finalize();
+};
+
+}  // namespace fleetslam::slam

@@ -1,0 +1,91 @@
+#pragma once
+// Ceres optimisation of poses and points with a robust (Huber) kernel and chi-square outlier rejection,
+// as ORB-SLAM does it: pose-only optimisation for tracking, local bundle adjustment for local mapping.
+// Residuals are in pixels weighted by the keypoint's level (inv_sigma2); stereo/RGB-D observations
+// carry a third residual on the (virtual) right u coordinate, u_R = u - bf / z.
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "fleetslam/core/camera.hpp"
+#include "fleetslam/core/config.hpp"
+
+namespace fleetslam::slam {
+
+struct Observation {
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // undistorted pixel
+  double u_right = -1.0;                         // < 0: monocular observation
+  double inv_sigma2 = 1.0;                       // 1 / sigma^2 of the keypoint's level
+};
+
+struct OptimizerConfig {
+  int rounds = 4;                 // optimise, classify outliers, repeat (outliers left out)
+  int iterations_per_round = 10;
+  double chi2_mono = 5.991;       // 95 % with 2 dof
+  double chi2_stereo = 7.815;     // 95 % with 3 dof
+  int num_threads = 1;            // deterministic by default
+
+  template <class V>
+  void visit(V& v) {
+    v("rounds", rounds, core::Limits<int>{1, 20});
+    v("iterations_per_round", iterations_per_round, core::Limits<int>{1, 200});
+    v("chi2_mono", chi2_mono, core::Limits<double>{0.1, 1000.0});
+    v("chi2_stereo", chi2_stereo, core::Limits<double>{0.1, 1000.0});
+    v("num_threads", num_threads, core::Limits<int>{1, 64});
+  }
+};
+
+// ---- pose-only -------------------------------------------------------------------------------------------
+
+struct PoseObservation {
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  // the map point (held fixed)
+  Observation obs;
+};
+
+struct PoseResult {
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+  std::vector<bool> outlier;  // per observation
+  int inliers = 0;
+  bool ok = false;            // false with fewer than 3 observations or a failed solve
+};
+
+// camera: undistorted intrinsics; bf: baseline * fx (used by stereo observations).
+PoseResult optimize_pose(const core::PinholeCamera& camera, double bf, const std::vector<PoseObservation>& observations,
+                         const Eigen::Isometry3d& T_cam_world_initial, const OptimizerConfig& config);
+
+// ---- local bundle adjustment -------------------------------------------------------------------------
+
+struct BaKeyframe {
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+  bool fixed = false;  // outer keyframes that observe local points but are not optimised
+};
+
+struct BaObservation {
+  int keyframe = -1;  // index into BaProblem::keyframes
+  int point = -1;     // index into BaProblem::points
+  Observation obs;
+};
+
+struct BaProblem {
+  std::vector<BaKeyframe> keyframes;
+  std::vector<Eigen::Vector3d> points_world;
+  std::vector<BaObservation> observations;
+};
+
+struct BaResult {
+  std::vector<Eigen::Isometry3d> T_cam_world;  // per keyframe (fixed ones unchanged)
+  std::vector<Eigen::Vector3d> points_world;
+  std::vector<bool> outlier;                   // per observation, after the final round
+  double initial_rms_px = 0.0;                 // reprojection RMS of inlier observations before/after
+  double final_rms_px = 0.0;
+  bool ok = false;
+};
+
+// Local BA with Ceres (SPARSE_SCHUR with SuiteSparse when available), two rounds: optimise with Huber,
+// drop chi-square outliers, optimise again. At least one keyframe must be fixed (gauge).
+BaResult bundle_adjust(const core::PinholeCamera& camera, double bf, const BaProblem& problem,
+                       const OptimizerConfig& config);
+
+}  // namespace fleetslam::slam
