@@ -4,11 +4,15 @@
 #include <cstdio>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
+#include <sstream>
+#include <utility>
 #include <string>
 #include <system_error>
 
 #include <opencv2/core.hpp>
 
+#include "dataset_internal.hpp"
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 
@@ -19,6 +23,10 @@ namespace {
 // hand); within it they are projected onto SO(3), beyond it the matrix is rejected.
 constexpr double kOrthonormalTolerance = 1e-3;
 constexpr double kBottomRowTolerance = 1e-6;
+// A rotation computed in double arithmetic is off orthonormal by a few ulps; such a matrix is kept as
+// written, so that a file written by write_orbslam_settings reads back bit-exactly (projecting it onto
+// SO(3) would move its entries by an ulp or so).
+constexpr double kRoundingOrthonormality = 2e-15;
 
 std::string format_number(double value) {
   char buffer[32];
@@ -152,7 +160,19 @@ class SettingsFile {
     }
     cv::Mat m64;
     m.convertTo(m64, CV_64F);
+    read_exact_entries(n["data"], m64);
     return m64;
+  }
+
+  // FileStorage converts the entries to the dt tag's type, so a "dt: f" matrix (ORB-SLAM3 reads floats)
+  // would lose the digits beyond float; the decimal text itself reads back at double precision.
+  static void read_exact_entries(const cv::FileNode& data, cv::Mat& m64) {
+    if (!data.isSeq() || data.size() != m64.total()) return;
+    auto* entry = m64.ptr<double>();
+    for (const cv::FileNode& value : data) {
+      if (value.isReal() || value.isInt()) *entry = static_cast<double>(value);
+      ++entry;
+    }
   }
 
   Eigen::Isometry3d to_rigid(const std::string& key, const cv::Mat& m) const {
@@ -174,7 +194,8 @@ class SettingsFile {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.linear() = R;
     T.translation() = M.topRightCorner<3, 1>();
-    return normalized(T);  // removes the float rounding of the stored rotation
+    if (error <= kRoundingOrthonormality) return T;
+    return normalized(T);  // removes the rounding of a rotation stored with few digits
   }
 
   // Points at the other layout when its key is there instead ("Camera1.fx" in an old-layout file).
@@ -356,7 +377,226 @@ void read_imu(const SettingsFile& f, const Layout& layout, SensorRig& rig) {
   rig.imu = imu;
 }
 
+
+// ---- writing -------------------------------------------------------------------------------------
+
+// The shortest decimal that reads back as the same double, in real form ("500.0", not "500"): OpenCV
+// types "500" as an integer, and older ORB-SLAM3 releases reject an integer where they read a float.
+std::string real_text(double value) {
+  std::string text = dataset_detail::exact(value);
+  if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // 'n': inf and nan
+  return text;
+}
+
+// The text of a settings file, key by key.
+class SettingsText {
+ public:
+  SettingsText() { out_ << "%YAML:1.0\n"; }
+
+  void comment(const std::string& text) { out_ << "\n# " << text << "\n"; }
+  void text(const std::string& key, const std::string& value) { out_ << key << ": \"" << value << "\"\n"; }
+  void integer(const std::string& key, long long value) { out_ << key << ": " << value << "\n"; }
+  void real(const std::string& key, double value) { out_ << key << ": " << real_text(value) << "\n"; }
+
+  // A rigid transformation as a 4x4 !!opencv-matrix. dt f is what ORB-SLAM3 reads (it takes the
+  // entries as floats); the 17-digit text keeps the double for read_orbslam_settings.
+  void matrix(const std::string& key, const Eigen::Isometry3d& T) {
+    out_ << key << ": !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: f\n  data: [";
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) {
+        out_ << real_text(T.matrix()(r, c)) << (r == 3 && c == 3 ? "]\n" : c == 3 ? ",\n         " : ", ");
+      }
+    }
+  }
+
+  std::string str() const { return out_.str(); }
+
+ private:
+  std::ostringstream out_;
+};
+
+// Checks of what a file must hold to read back; `fail` names the file and the key.
+class WriteChecks {
+ public:
+  explicit WriteChecks(const std::filesystem::path& file) : name_(file.string()) {}
+  void require(bool condition, const std::string& key, const std::string& why) const {
+    if (!condition) throw InputError(name_ + ":" + key, "cannot write the settings: " + why);
+  }
+
+ private:
+  std::string name_;
+};
+
+// Inertial modes carry their IMU; RGB-D may (ORB-SLAM3's IMU_RGBD). A monocular or stereo rig's IMU is
+// left out: its keys would make the file read back as the inertial mode.
+bool writes_imu(const SensorRig& rig) {
+  return is_inertial(rig.mode) || (rig.mode == SensorMode::kRgbd && rig.imu && rig.T_body_cam0);
+}
+
+void check_writable(const WriteChecks& check, const OrbSlamSettings& s) {
+  const SensorRig& rig = s.rig;
+  if (is_stereo(rig.mode)) {
+    check.require(rig.cam1.has_value(), "Camera2.fx", "a stereo rig needs cam1");
+    check.require(rig.cam1->width() == rig.cam0.width() && rig.cam1->height() == rig.cam0.height(),
+                  "Camera.width", "both cameras must have the same image size");
+  }
+  if (is_stereo(rig.mode) || rig.mode == SensorMode::kRgbd) {
+    check.require(s.th_depth > 0.0, "Stereo.ThDepth", "stereo and RGB-D need a positive th_depth");
+  }
+  if (rig.mode == SensorMode::kRgbd) {
+    check.require(rig.bf > 0.0, "Stereo.b", "RGB-D needs a positive (virtual) bf");
+    check.require(rig.depth_scale > 0.0, "RGBD.DepthMapFactor", "the depth scale must be positive");
+  }
+  if (is_inertial(rig.mode)) {
+    check.require(rig.imu.has_value(), "IMU.NoiseGyro", "an inertial mode needs the IMU noise");
+    check.require(rig.T_body_cam0.has_value(), "IMU.T_b_c1", "an inertial mode needs T_body_cam0");
+  }
+  if (writes_imu(rig)) {
+    const ImuNoise& imu = *rig.imu;
+    for (const auto& [key, value] : {std::pair<const char*, double>{"IMU.NoiseGyro", imu.gyro_noise_density},
+                                     {"IMU.NoiseAcc", imu.accel_noise_density},
+                                     {"IMU.GyroWalk", imu.gyro_random_walk},
+                                     {"IMU.AccWalk", imu.accel_random_walk},
+                                     {"IMU.Frequency", imu.rate_hz}}) {
+      check.require(value > 0.0, key, "IMU noise and rate must be positive");
+    }
+  }
+  check.require(rig.fps > 0.0, "Camera.fps", "the frame rate must be positive");
+  check.require((s.new_width > 0) == (s.new_height > 0) && s.new_width >= 0 && s.new_height >= 0,
+                "Camera.newWidth", "give both new_width and new_height, or neither");
+}
+
+void write_camera(SettingsText& out, const std::string& prefix, const PinholeCamera& camera) {
+  out.real(prefix + "fx", camera.fx());
+  out.real(prefix + "fy", camera.fy());
+  out.real(prefix + "cx", camera.cx());
+  out.real(prefix + "cy", camera.cy());
+  const RadTan& d = camera.distortion();
+  if (d.is_zero()) return;  // absent keys mean no distortion to both readers; ORB-SLAM3 skips undistorting
+  out.real(prefix + "k1", d.k1);
+  out.real(prefix + "k2", d.k2);
+  out.real(prefix + "p1", d.p1);
+  out.real(prefix + "p2", d.p2);
+  out.real(prefix + "k3", d.k3);
+}
+
+bool same_intrinsics(const PinholeCamera& a, const PinholeCamera& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.fx() == b.fx() && a.fy() == b.fy() &&
+         a.cx() == b.cx() && a.cy() == b.cy();
+}
+
+// A rectified pair in ORB-SLAM3's sense: one ideal camera twice, the second along +x of the first.
+bool is_rectified_pair(const SensorRig& rig) {
+  const Eigen::Vector3d t = rig.T_cam0_cam1.translation();
+  return rig.cam1 && same_intrinsics(rig.cam0, *rig.cam1) && rig.cam0.distortion().is_zero() &&
+         rig.cam1->distortion().is_zero() && rig.T_cam0_cam1.linear() == Eigen::Matrix3d::Identity() &&
+         t.y() == 0.0 && t.z() == 0.0 && t.x() > 0.0;
+}
+
+// A baseline b with b * fx == bf, as the readers compute bf from it. The quotient is within an ulp or
+// two of such a b when one exists; otherwise the quotient itself (bf then reads back an ulp off).
+double baseline_for(double bf, double fx) {
+  const double quotient = bf / fx;
+  double down = quotient;
+  double up = quotient;
+  for (int step = 0; step < 3; ++step) {
+    if (down * fx == bf) return down;
+    if (up * fx == bf) return up;
+    down = std::nextafter(down, 0.0);
+    up = std::nextafter(up, std::numeric_limits<double>::infinity());
+  }
+  return quotient;
+}
+
+void write_image_settings(SettingsText& out, const OrbSlamSettings& s) {
+  out.integer("Camera.width", s.rig.cam0.width());
+  out.integer("Camera.height", s.rig.cam0.height());
+  if (s.new_width > 0 && s.new_height > 0) {
+    out.integer("Camera.newWidth", s.new_width);
+    out.integer("Camera.newHeight", s.new_height);
+  }
+  // ORB-SLAM3 reads the frame rate as an integer.
+  const double fps = s.rig.fps;
+  if (fps == std::floor(fps) && std::abs(fps) < 1e9) {
+    out.integer("Camera.fps", static_cast<long long>(fps));
+  } else {
+    out.real("Camera.fps", fps);
+  }
+  out.integer("Camera.RGB", s.rig.rgb_order ? 1 : 0);
+}
+
+void write_stereo(SettingsText& out, const SensorRig& rig) {
+  if (is_rectified_pair(rig)) {
+    out.real("Stereo.b", rig.T_cam0_cam1.translation().x());
+    return;
+  }
+  write_camera(out, "Camera2.", *rig.cam1);
+  out.matrix("Stereo.T_c1_c2", rig.T_cam0_cam1);
+}
+
+void write_imu(SettingsText& out, const SensorRig& rig) {
+  out.matrix("IMU.T_b_c1", *rig.T_body_cam0);
+  out.real("IMU.NoiseGyro", rig.imu->gyro_noise_density);
+  out.real("IMU.NoiseAcc", rig.imu->accel_noise_density);
+  out.real("IMU.GyroWalk", rig.imu->gyro_random_walk);
+  out.real("IMU.AccWalk", rig.imu->accel_random_walk);
+  out.real("IMU.Frequency", rig.imu->rate_hz);
+}
+
+void write_orb_extractor(SettingsText& out, const OrbExtractorSettings& orb) {
+  out.integer("ORBextractor.nFeatures", orb.num_features);
+  out.real("ORBextractor.scaleFactor", orb.scale_factor);
+  out.integer("ORBextractor.nLevels", orb.num_levels);
+  out.integer("ORBextractor.iniThFAST", orb.ini_fast_threshold);
+  out.integer("ORBextractor.minThFAST", orb.min_fast_threshold);
+}
+
+// ORB-SLAM3 exits when these are missing and its viewer runs; the values are those of its examples.
+void write_viewer(SettingsText& out) {
+  const std::pair<const char*, double> kViewer[] = {
+      {"Viewer.KeyFrameSize", 0.05}, {"Viewer.KeyFrameLineWidth", 1.0}, {"Viewer.GraphLineWidth", 0.9},
+      {"Viewer.PointSize", 2.0},     {"Viewer.CameraSize", 0.08},       {"Viewer.CameraLineWidth", 3.0},
+      {"Viewer.ViewpointX", 0.0},    {"Viewer.ViewpointY", -0.7},       {"Viewer.ViewpointZ", -1.8},
+      {"Viewer.ViewpointF", 500.0}};
+  for (const auto& [key, value] : kViewer) out.real(key, value);
+}
+
+std::string settings_text(const OrbSlamSettings& s) {
+  const SensorRig& rig = s.rig;
+  SettingsText out;
+  out.comment("ORB-SLAM3 settings (" + to_string(rig.mode) + "), written by fleetslam");
+  out.text("File.version", "1.0");
+  const bool rectified = is_stereo(rig.mode) && is_rectified_pair(rig);
+  out.text("Camera.type", rectified ? "Rectified" : "PinHole");
+  write_camera(out, "Camera1.", rig.cam0);
+  write_image_settings(out, s);
+  if (is_stereo(rig.mode)) write_stereo(out, rig);
+  if (rig.mode == SensorMode::kRgbd) {
+    out.real("RGBD.DepthMapFactor", rig.depth_scale);
+    out.real("Stereo.b", baseline_for(rig.bf, rig.cam0.fx()));
+  }
+  if (s.th_depth > 0.0) out.real("Stereo.ThDepth", s.th_depth);
+  if (writes_imu(rig)) {
+    out.comment("IMU: noise densities (continuous time), camera 1 in the body (IMU) frame");
+    write_imu(out, rig);
+  }
+  out.comment("ORB features");
+  write_orb_extractor(out, s.orb);
+  out.comment("Viewer");
+  write_viewer(out);
+  return out.str();
+}
+
 }  // namespace
+
+void write_orbslam_settings(const std::filesystem::path& file, const OrbSlamSettings& s) {
+  check_writable(WriteChecks(file), s);
+  const std::string text = settings_text(s);
+  std::ofstream out(file);
+  out << text;
+  out.close();
+  if (!out) throw InputError(file.string(), "cannot write the settings file");
+}
 
 OrbSlamSettings read_orbslam_settings(const std::filesystem::path& file, std::optional<SensorMode> mode) {
   const SettingsFile f(file);

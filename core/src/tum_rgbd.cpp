@@ -11,6 +11,7 @@
 
 #include "dataset_internal.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/orbslam_settings.hpp"
 
 namespace fleetslam::core {
 
@@ -76,7 +77,7 @@ SensorRig tum_rig(const std::filesystem::path& root, const DatasetConfig& config
     rig = *config.rig;
     info.calibration_source = config.rig_source.empty() ? "rig given by the caller" : config.rig_source;
   } else if (std::filesystem::exists(root / kTumCameraFile, ec)) {
-    rig = read_tum_camera_file(root / kTumCameraFile);
+    rig = read_orbslam_settings(root / kTumCameraFile, SensorMode::kRgbd).rig;
     info.calibration_source = (root / kTumCameraFile).string();
   } else if (const std::optional<int> freiburg = freiburg_from_name(folder_name(root))) {
     rig = tum_freiburg_rig(*freiburg);

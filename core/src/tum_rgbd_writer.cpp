@@ -1,14 +1,14 @@
-// TUM RGB-D writer and the camera.yaml calibration file beside a sequence.
+// TUM RGB-D writer: images, lists, ground truth, accelerometer and camera.yaml.
 
 #include <cmath>
 #include <fstream>
-#include <stdexcept>
 
 #include <opencv2/core.hpp>
 #include <spdlog/logger.h>
 
 #include "dataset_internal.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/orbslam_settings.hpp"
 #include "fleetslam/core/tum_rgbd.hpp"
 
 namespace fleetslam::core {
@@ -16,18 +16,6 @@ namespace fleetslam::core {
 using namespace dataset_detail;
 
 namespace {
-
-double optional_number(const SettingsFile& file, const std::string& key, double fallback) {
-  return file.has(key) ? file.number(key) : fallback;
-}
-
-int whole_number(const SettingsFile& file, const std::string& key) {
-  const double value = file.number(key);
-  if (value != std::floor(value) || value < 1.0 || value > 1e5) {
-    throw InputError(file.where(key), "expected a positive whole number of pixels");
-  }
-  return static_cast<int>(value);
-}
 
 // Metres -> raw 16-bit units. NaN, negative and zero mean no measurement (0); depths past the 16-bit
 // range become 0 too rather than a wrong saturated value, and are counted.
@@ -67,44 +55,26 @@ void check_frame(const SensorFrame& frame) {
   }
 }
 
+// camera.yaml: the rig as an ORB-SLAM3 RGB-D settings file. A rig without a virtual baseline gets the
+// one of ORB-SLAM's TUM settings (TUM1.yaml: Camera.bf 40), and the close-depth threshold is theirs too.
+constexpr double kTumVirtualBf = 40.0;
+constexpr double kTumThDepthBaselines = 40.0;
+
+OrbSlamSettings tum_camera_settings(const SensorRig& rig) {
+  OrbSlamSettings s;
+  s.rig = rig;
+  s.rig.mode = SensorMode::kRgbd;
+  s.rig.cam1.reset();
+  s.rig.T_cam0_cam1 = Eigen::Isometry3d::Identity();
+  // The layout keeps only an accelerometer (no gyro), so the file describes no IMU.
+  s.rig.imu.reset();
+  s.rig.T_body_cam0.reset();
+  if (!(s.rig.bf > 0.0)) s.rig.bf = kTumVirtualBf;
+  s.th_depth = kTumThDepthBaselines;
+  return s;
+}
+
 }  // namespace
-
-SensorRig read_tum_camera_file(const std::filesystem::path& path) {
-  const SettingsFile file(path);
-  const RadTan distortion{optional_number(file, "Camera.k1", 0.0), optional_number(file, "Camera.k2", 0.0),
-                          optional_number(file, "Camera.p1", 0.0), optional_number(file, "Camera.p2", 0.0),
-                          optional_number(file, "Camera.k3", 0.0)};
-  SensorRig rig;
-  rig.mode = SensorMode::kRgbd;
-  try {
-    rig.cam0 = PinholeCamera(whole_number(file, "Camera.width"), whole_number(file, "Camera.height"),
-                             file.number("Camera.fx"), file.number("Camera.fy"), file.number("Camera.cx"),
-                             file.number("Camera.cy"), distortion);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(file.file(), std::string("invalid camera: ") + e.what());
-  }
-  rig.fps = optional_number(file, "Camera.fps", 30.0);
-  rig.bf = optional_number(file, "Camera.bf", 40.0);
-  rig.rgb_order = optional_number(file, "Camera.RGB", 0.0) != 0.0;
-  rig.depth_scale = optional_number(file, "DepthMapFactor", 5000.0);
-  if (!(rig.depth_scale > 0.0)) throw InputError(file.where("DepthMapFactor"), "must be positive");
-  return rig;
-}
-
-void write_tum_camera_file(const std::filesystem::path& path, const SensorRig& rig) {
-  std::ofstream out(path);
-  const PinholeCamera& c = rig.cam0;
-  const RadTan& d = c.distortion();
-  out << "%YAML:1.0\n# Calibration of this sequence, written by fleetslam (ORB-SLAM settings keys).\n"
-      << "Camera.type: \"PinHole\"\n"
-      << "Camera.fx: " << exact(c.fx()) << "\nCamera.fy: " << exact(c.fy()) << "\nCamera.cx: " << exact(c.cx())
-      << "\nCamera.cy: " << exact(c.cy()) << "\nCamera.k1: " << exact(d.k1) << "\nCamera.k2: " << exact(d.k2)
-      << "\nCamera.p1: " << exact(d.p1) << "\nCamera.p2: " << exact(d.p2) << "\nCamera.k3: " << exact(d.k3)
-      << "\nCamera.width: " << c.width() << "\nCamera.height: " << c.height() << "\nCamera.fps: " << exact(rig.fps)
-      << "\nCamera.bf: " << exact(rig.bf) << "\nCamera.RGB: " << (rig.rgb_order ? 1 : 0)
-      << "\nDepthMapFactor: " << exact(rig.depth_scale) << "\n";
-  if (!out) throw InputError(path.string(), "cannot write the calibration file");
-}
 
 struct TumRgbdWriter::Files {
   std::ofstream rgb;
@@ -119,7 +89,7 @@ TumRgbdWriter::TumRgbdWriter(const std::filesystem::path& root, const SensorRig&
   create_output_folder(root_);
   std::filesystem::create_directories(root_ / "rgb");
   std::filesystem::create_directories(root_ / "depth");
-  write_tum_camera_file(root_ / kTumCameraFile, rig_);
+  write_orbslam_settings(root_ / kTumCameraFile, tum_camera_settings(rig_));
   files_->rgb.open(root_ / "rgb.txt");
   files_->depth.open(root_ / "depth.txt");
   files_->rgb << "# color images\n# written by fleetslam\n# timestamp filename\n";

@@ -377,7 +377,8 @@ TEST_F(TumRgbdBadInput, UnknownCameraAndBadCalibrationFile) {
   expect_input_error([&] { open(dir.path()); }, {kTumCameraFile});
   test::write_file(dir / kTumCameraFile, "%YAML:1.0\nCamera.fx: -5\nCamera.fy: 5\nCamera.cx: 3\nCamera.cy: 3\n"
                                          "Camera.width: 64\nCamera.height: 48\n");
-  expect_input_error([&] { open(dir.path()); }, {kTumCameraFile, "invalid camera"});
+  expect_input_error([&] { open(dir.path()); },
+                     {std::string(kTumCameraFile) + ":Camera.fx", "focal length must be positive"});
 }
 
 TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {

@@ -1,14 +1,19 @@
 // ORB-SLAM settings reader on synthetic files in both layouts, each sensor mode, and every kind of bad
-// input (each error must name the file and the key).
+// input (each error must name the file and the key); writer round trips in every mode and its refusals.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/orbslam_settings.hpp"
@@ -470,6 +475,263 @@ TEST_F(OrbSlamSettingsTest, BadMatrices) {
                "non-zero");  // zero baseline
   expect_error(std::string(kV1Camera1) + kImuNoise + matrix("IMU.T_b_c1", "2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1"),
                "IMU.T_b_c1", "not orthonormal");
+}
+
+
+// ---- writer ---------------------------------------------------------------------------------------
+
+// Awkward values (no short decimal) so that an inexact writer shows.
+PinholeCamera distorted_camera(double fx) {
+  return PinholeCamera(752, 480, fx, fx * (1.0 + 1.0 / 3e3), 367.215 + 1.0 / 7.0, 248.375 - 1.0 / 9.0,
+                       RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, -1.0 / 3e4});
+}
+
+Eigen::Isometry3d pose(double angle_rad, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+ImuNoise imu_noise() {
+  ImuNoise imu;
+  imu.gyro_noise_density = 1.6968e-4 / 3.0;
+  imu.accel_noise_density = 2.0e-3 * std::sqrt(2.0);
+  imu.gyro_random_walk = 1.9393e-05;
+  imu.accel_random_walk = 3.0e-3 / 7.0;
+  imu.rate_hz = 200.0;
+  return imu;
+}
+
+OrbSlamSettings base_settings(SensorMode mode) {
+  OrbSlamSettings s;
+  s.rig.mode = mode;
+  s.rig.cam0 = distorted_camera(458.654 + 1.0 / 3.0);
+  s.rig.fps = 20.0;
+  s.rig.rgb_order = false;
+  s.orb = OrbExtractorSettings{1234, 1.2 + 1e-9, 7, 19, 6};
+  return s;
+}
+
+void add_imu(OrbSlamSettings& s) {
+  s.rig.imu = imu_noise();
+  s.rig.T_body_cam0 = pose(1.9, {0.3, -1.0, 0.2}, {-0.0216401454975 / 3.0, -0.064676986768, 0.00981073058949});
+}
+
+// A stereo pair of two different cameras; bf as the readers derive it.
+void add_second_camera(OrbSlamSettings& s) {
+  s.rig.cam1 = distorted_camera(457.587 + 1.0 / 7.0);
+  s.rig.T_cam0_cam1 = pose(0.0141, {1.0, 0.02, -0.3}, {0.110074137800478, -0.000156612054392, 0.000889382785432});
+  s.rig.bf = s.rig.T_cam0_cam1.translation().norm() * s.rig.cam0.fx();
+  s.th_depth = 60.0 / 7.0;
+}
+
+// One settings value per mode and layout the writer knows.
+std::vector<std::pair<std::string, OrbSlamSettings>> settings_of_every_mode() {
+  std::vector<std::pair<std::string, OrbSlamSettings>> all;
+  OrbSlamSettings mono = base_settings(SensorMode::kMonocular);
+  mono.new_width = 600;
+  mono.new_height = 350;
+  all.emplace_back("monocular", mono);
+
+  OrbSlamSettings mono_fractional_fps = base_settings(SensorMode::kMonocular);
+  mono_fractional_fps.rig.fps = 30000.0 / 1001.0;
+  mono_fractional_fps.th_depth = 35.5;
+  mono_fractional_fps.rig.cam0 = PinholeCamera(640, 480, 525.0, 525.0, 319.5, 239.5);
+  all.emplace_back("monocular, fractional fps, no distortion", mono_fractional_fps);
+
+  OrbSlamSettings mono_inertial = base_settings(SensorMode::kMonoInertial);
+  add_imu(mono_inertial);
+  all.emplace_back("mono_inertial", mono_inertial);
+
+  OrbSlamSettings stereo = base_settings(SensorMode::kStereo);
+  add_second_camera(stereo);
+  all.emplace_back("stereo, two cameras", stereo);
+
+  OrbSlamSettings rectified = base_settings(SensorMode::kStereo);
+  rectified.rig.cam0 = PinholeCamera(64, 48, 57.94112549695428, 57.94112549695428, 31.5, 23.5);
+  rectified.rig.cam1 = rectified.rig.cam0;
+  rectified.rig.T_cam0_cam1.translation() = Eigen::Vector3d(0.11, 0.0, 0.0);
+  rectified.rig.bf = 0.11 * rectified.rig.cam0.fx();
+  rectified.th_depth = 60.0;
+  all.emplace_back("stereo, rectified", rectified);
+
+  OrbSlamSettings stereo_inertial = base_settings(SensorMode::kStereoInertial);
+  add_second_camera(stereo_inertial);
+  add_imu(stereo_inertial);
+  all.emplace_back("stereo_inertial", stereo_inertial);
+
+  OrbSlamSettings rgbd = base_settings(SensorMode::kRgbd);
+  rgbd.rig.depth_scale = 1000.0 / 3.0;
+  rgbd.rig.bf = 0.08 * rgbd.rig.cam0.fx();
+  rgbd.th_depth = 40.0;
+  rgbd.rig.rgb_order = true;
+  all.emplace_back("rgbd", rgbd);
+
+  OrbSlamSettings rgbd_inertial = rgbd;
+  add_imu(rgbd_inertial);
+  all.emplace_back("rgbd with an IMU", rgbd_inertial);
+  return all;
+}
+
+void expect_same_camera(const PinholeCamera& a, const PinholeCamera& b) {
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_EQ(a.fx(), b.fx());
+  EXPECT_EQ(a.fy(), b.fy());
+  EXPECT_EQ(a.cx(), b.cx());
+  EXPECT_EQ(a.cy(), b.cy());
+  EXPECT_EQ(a.distortion().k1, b.distortion().k1);
+  EXPECT_EQ(a.distortion().k2, b.distortion().k2);
+  EXPECT_EQ(a.distortion().p1, b.distortion().p1);
+  EXPECT_EQ(a.distortion().p2, b.distortion().p2);
+  EXPECT_EQ(a.distortion().k3, b.distortion().k3);
+}
+
+// Every field, compared exactly.
+void expect_same(const OrbSlamSettings& a, const OrbSlamSettings& b) {
+  EXPECT_EQ(a.rig.mode, b.rig.mode);
+  expect_same_camera(a.rig.cam0, b.rig.cam0);
+  ASSERT_EQ(a.rig.cam1.has_value(), b.rig.cam1.has_value());
+  if (a.rig.cam1) expect_same_camera(*a.rig.cam1, *b.rig.cam1);
+  EXPECT_EQ(a.rig.T_cam0_cam1.matrix(), b.rig.T_cam0_cam1.matrix());
+  ASSERT_EQ(a.rig.T_body_cam0.has_value(), b.rig.T_body_cam0.has_value());
+  if (a.rig.T_body_cam0) {
+    EXPECT_EQ(a.rig.T_body_cam0->matrix(), b.rig.T_body_cam0->matrix());
+  }
+  ASSERT_EQ(a.rig.imu.has_value(), b.rig.imu.has_value());
+  if (a.rig.imu) {
+    EXPECT_EQ(a.rig.imu->gyro_noise_density, b.rig.imu->gyro_noise_density);
+    EXPECT_EQ(a.rig.imu->gyro_random_walk, b.rig.imu->gyro_random_walk);
+    EXPECT_EQ(a.rig.imu->accel_noise_density, b.rig.imu->accel_noise_density);
+    EXPECT_EQ(a.rig.imu->accel_random_walk, b.rig.imu->accel_random_walk);
+    EXPECT_EQ(a.rig.imu->rate_hz, b.rig.imu->rate_hz);
+  }
+  EXPECT_EQ(a.rig.depth_scale, b.rig.depth_scale);
+  EXPECT_EQ(a.rig.bf, b.rig.bf);
+  EXPECT_EQ(a.rig.fps, b.rig.fps);
+  EXPECT_EQ(a.rig.rgb_order, b.rig.rgb_order);
+  EXPECT_EQ(a.orb.num_features, b.orb.num_features);
+  EXPECT_EQ(a.orb.scale_factor, b.orb.scale_factor);
+  EXPECT_EQ(a.orb.num_levels, b.orb.num_levels);
+  EXPECT_EQ(a.orb.ini_fast_threshold, b.orb.ini_fast_threshold);
+  EXPECT_EQ(a.orb.min_fast_threshold, b.orb.min_fast_threshold);
+  EXPECT_EQ(a.th_depth, b.th_depth);
+  EXPECT_EQ(a.new_width, b.new_width);
+  EXPECT_EQ(a.new_height, b.new_height);
+}
+
+TEST_F(OrbSlamSettingsTest, WriteThenReadGivesTheSameSettingsInEveryMode) {
+  for (const auto& [name, written] : settings_of_every_mode()) {
+    SCOPED_TRACE(name);
+    const fs::path path = dir_ / "written.yaml";
+    write_orbslam_settings(path, written);
+    expect_same(read_orbslam_settings(path), written);                   // mode inferred
+    expect_same(read_orbslam_settings(path, written.rig.mode), written);  // mode given
+  }
+}
+
+// What ORB-SLAM3's Settings.cc checks: File.version, types (it exits on an integer where it reads an
+// int and on a string where it reads a number), float matrices, the keys of each mode, Viewer.*.
+TEST_F(OrbSlamSettingsTest, WrittenFileHasTheKeysAndTypesOrbSlam3Reads) {
+  for (const auto& [name, written] : settings_of_every_mode()) {
+    SCOPED_TRACE(name);
+    const fs::path path = dir_ / "written.yaml";
+    write_orbslam_settings(path, written);
+    cv::FileStorage file(path.string(), cv::FileStorage::READ);
+    ASSERT_TRUE(file.isOpened());
+    EXPECT_EQ(static_cast<std::string>(file["File.version"]), "1.0");
+    const auto expect_real = [&](const char* key) { EXPECT_TRUE(file[key].isReal()) << key; };
+    const auto expect_int = [&](const char* key) { EXPECT_TRUE(file[key].isInt()) << key; };
+    for (const char* key : {"Camera1.fx", "Camera1.fy", "Camera1.cx", "Camera1.cy", "ORBextractor.scaleFactor",
+                            "Viewer.KeyFrameSize", "Viewer.ViewpointF", "Viewer.ViewpointX"}) {
+      expect_real(key);
+    }
+    for (const char* key : {"Camera.width", "Camera.height", "Camera.RGB", "ORBextractor.nFeatures",
+                            "ORBextractor.nLevels", "ORBextractor.iniThFAST", "ORBextractor.minThFAST"}) {
+      expect_int(key);
+    }
+    if (written.rig.fps == std::floor(written.rig.fps)) expect_int("Camera.fps");
+    const SensorMode mode = written.rig.mode;
+    const bool stereo = mode == SensorMode::kStereo || mode == SensorMode::kStereoInertial;
+    const bool rectified = stereo && written.rig.cam1->fx() == written.rig.cam0.fx();
+    EXPECT_EQ(static_cast<std::string>(file["Camera.type"]), rectified ? "Rectified" : "PinHole");
+    if (stereo || mode == SensorMode::kRgbd) expect_real("Stereo.ThDepth");
+    if (mode == SensorMode::kRgbd) {
+      expect_real("RGBD.DepthMapFactor");
+      expect_real("Stereo.b");
+      EXPECT_EQ(static_cast<double>(file["Stereo.b"]) * written.rig.cam0.fx(), written.rig.bf);
+    }
+    if (rectified) {
+      expect_real("Stereo.b");
+    }
+    if (stereo && !rectified) {
+      expect_real("Camera2.fx");
+      expect_real("Camera2.k1");
+      // ORB-SLAM3 reads the matrix entries as floats (cv::Mat::at<float>).
+      const cv::Mat T = file["Stereo.T_c1_c2"].mat();
+      ASSERT_EQ(T.type(), CV_32FC1);
+      EXPECT_EQ(T.at<float>(0, 3), static_cast<float>(written.rig.T_cam0_cam1.translation().x()));
+      EXPECT_EQ(T.at<float>(1, 2), static_cast<float>(written.rig.T_cam0_cam1.linear()(1, 2)));
+    }
+    if (written.rig.imu) {
+      for (const char* key : {"IMU.NoiseGyro", "IMU.NoiseAcc", "IMU.GyroWalk", "IMU.AccWalk", "IMU.Frequency"}) {
+        expect_real(key);
+      }
+      EXPECT_EQ(file["IMU.T_b_c1"].mat().type(), CV_32FC1);
+    }
+  }
+}
+
+TEST_F(OrbSlamSettingsTest, MonocularOrStereoRigsDoNotWriteTheirImu) {
+  OrbSlamSettings mono = base_settings(SensorMode::kMonocular);
+  add_imu(mono);
+  const fs::path path = dir_ / "mono.yaml";
+  write_orbslam_settings(path, mono);
+  const OrbSlamSettings read_back = read_orbslam_settings(path);
+  EXPECT_EQ(read_back.rig.mode, SensorMode::kMonocular);
+  EXPECT_FALSE(read_back.rig.imu.has_value());
+}
+
+// A writer error names the file and the key that could not be written.
+void expect_write_error(const fs::path& path, const OrbSlamSettings& s, const std::string& key,
+                        const std::string& why_part) {
+  try {
+    write_orbslam_settings(path, s);
+    ADD_FAILURE() << "no error for key " << key;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), key.empty() ? path.string() : path.string() + ":" + key) << e.what();
+    EXPECT_NE(e.why().find(why_part), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(OrbSlamSettingsTest, SettingsThatWouldNotReadBackAreNotWritten) {
+  const fs::path path = dir_ / "bad.yaml";
+  expect_write_error(path, base_settings(SensorMode::kStereo), "Camera2.fx", "needs cam1");
+  OrbSlamSettings stereo = base_settings(SensorMode::kStereo);
+  add_second_camera(stereo);
+  stereo.th_depth = 0.0;
+  expect_write_error(path, stereo, "Stereo.ThDepth", "th_depth");
+  stereo.th_depth = 40.0;
+  stereo.rig.cam1 = PinholeCamera(640, 480, 500.0, 500.0, 320.0, 240.0);
+  expect_write_error(path, stereo, "Camera.width", "same image size");
+  OrbSlamSettings rgbd = base_settings(SensorMode::kRgbd);
+  rgbd.th_depth = 40.0;
+  expect_write_error(path, rgbd, "Stereo.b", "bf");
+  OrbSlamSettings inertial = base_settings(SensorMode::kMonoInertial);
+  expect_write_error(path, inertial, "IMU.NoiseGyro", "IMU noise");
+  add_imu(inertial);
+  inertial.rig.T_body_cam0.reset();
+  expect_write_error(path, inertial, "IMU.T_b_c1", "T_body_cam0");
+  add_imu(inertial);
+  inertial.rig.imu->accel_random_walk = 0.0;
+  expect_write_error(path, inertial, "IMU.AccWalk", "positive");
+  OrbSlamSettings half_resize = base_settings(SensorMode::kMonocular);
+  half_resize.new_width = 320;
+  expect_write_error(path, half_resize, "Camera.newWidth", "both");
+  expect_write_error(dir_ / "no_such_folder" / "settings.yaml", base_settings(SensorMode::kMonocular), "",
+                     "cannot write");
+  EXPECT_FALSE(fs::exists(dir_ / "no_such_folder"));
 }
 
 }  // namespace

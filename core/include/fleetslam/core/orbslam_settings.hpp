@@ -1,5 +1,6 @@
 #pragma once
-// Reader for camera settings files in the ORB-SLAM2/3 format, which users arriving from ORB-SLAM carry.
+// Reader and writer of camera settings files in the ORB-SLAM2/3 format, which users arriving from
+// ORB-SLAM carry and which ORB-SLAM3 runs on.
 // They are OpenCV FileStorage YAML ("%YAML:1.0" header, !!opencv-matrix tags), which yaml-cpp cannot
 // parse, so they are read with cv::FileStorage.
 //
@@ -16,6 +17,10 @@
 //
 // Frames: Stereo.T_c1_c2 is the pose of camera 2 in camera 1 (it maps camera-2 points into camera 1),
 // i.e. T_cam0_cam1; IMU.T_b_c1 (and Tbc) is the pose of camera 1 in the IMU body frame, T_body_cam0.
+//
+// Precision: matrix entries are read from their decimal text at double precision whatever the dt tag
+// says (ORB-SLAM3's files say "f"), and numbers are written with the shortest decimal that reads back
+// as the same double, so read(write(s)) == s exactly (see write_orbslam_settings for what a file holds).
 
 #include <filesystem>
 #include <optional>
@@ -59,8 +64,29 @@ struct OrbSlamSettings {
 // A given mode must find the keys it needs. Throws InputError "file:key: why" for a missing file,
 // a malformed file, a missing required key, a value of the wrong type or out of range (e.g. a
 // non-positive focal length), a matrix that is not 4x4 or not rigid (a rotation off orthonormal by
-// more than 1e-3; closer ones are orthonormalised).
+// more than 1e-3; closer ones are orthonormalised, except those already orthonormal to double
+// rounding, which are kept as written).
 OrbSlamSettings read_orbslam_settings(const std::filesystem::path& file,
                                       std::optional<SensorMode> mode = std::nullopt);
+
+// Writes `s` as an ORB-SLAM3 v1.0 settings file (%YAML:1.0, File.version "1.0") that ORB-SLAM3 and
+// read_orbslam_settings both accept, for every mode:
+//  - all: Camera.type, Camera1.fx/fy/cx/cy (k1/k2/p1/p2/k3 unless the distortion is zero),
+//    Camera.width/height/fps/RGB, Camera.newWidth/newHeight when set, ORBextractor.*, Viewer.* (ORB-SLAM3
+//    requires them when its viewer runs), Stereo.ThDepth when th_depth > 0;
+//  - stereo: Camera.type "Rectified" with Stereo.b when cam1 equals cam0 without distortion and
+//    T_cam0_cam1 is a pure +x translation (ORB-SLAM3 then skips rectification), else Camera2.* and
+//    Stereo.T_c1_c2. bf is not stored: readers derive it as |t| * fx;
+//  - RGB-D: RGBD.DepthMapFactor and Stereo.b = bf / fx (chosen so that Stereo.b * fx gives bf back);
+//  - inertial modes, and RGB-D with an IMU: IMU.T_b_c1 and IMU.NoiseGyro/NoiseAcc/GyroWalk/AccWalk/
+//    Frequency. A monocular or stereo rig's IMU is not written (the file would read back as inertial).
+// Reals are written in real form (ORB-SLAM3 checks the type); Camera.fps is an integer when whole
+// (ORB-SLAM3 reads an integer, so give it a whole frame rate). Matrices are !!opencv-matrix with dt f, as
+// ORB-SLAM3 reads them, and 17-digit entries for this reader.
+// Throws InputError "file:key: why" when the settings cannot be written so that they read back: stereo
+// without cam1 or with a cam1 of another size, stereo or RGB-D without a positive th_depth, RGB-D
+// without a positive bf or depth scale, an inertial mode without IMU noise or T_body_cam0, IMU noise
+// that is not positive; and naming the file when it cannot be written.
+void write_orbslam_settings(const std::filesystem::path& file, const OrbSlamSettings& s);
 
 }  // namespace fleetslam::core

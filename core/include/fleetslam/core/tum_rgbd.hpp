@@ -18,8 +18,10 @@
 
 namespace fleetslam::core {
 
-// Calibration written and read beside a sequence by this project (ORB-SLAM settings keys:
-// Camera.fx ... Camera.k3, Camera.width/height/fps/bf/RGB, DepthMapFactor). Optional in a TUM folder.
+// Calibration beside a sequence, optional in a TUM folder: an ORB-SLAM RGB-D settings file. The writer
+// writes it with write_orbslam_settings (ORB-SLAM3 v1.0 layout, RGB-D, no IMU: the layout has no gyro;
+// a rig without a virtual baseline gets ORB-SLAM's TUM bf of 40, ThDepth is 40); the reader reads it with
+// read_orbslam_settings in RGB-D mode, so ORB-SLAM2's TUM1.yaml-style files read too.
 inline constexpr const char* kTumCameraFile = "camera.yaml";
 
 // Pairs stamps of `a` and `b` closer than max_difference_ns, greedily from the closest pair on, each
@@ -34,10 +36,6 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_stamps(const std::vec
 SensorRig tum_freiburg_rig(int freiburg);
 // 1, 2 or 3 when a folder name says "freiburg1" / "fr1" etc.; nullopt otherwise.
 std::optional<int> freiburg_from_name(const std::string& folder_name);
-
-// The RGB-D calibration file of kTumCameraFile (an ORB-SLAM RGB-D settings file reads too).
-SensorRig read_tum_camera_file(const std::filesystem::path& file);
-void write_tum_camera_file(const std::filesystem::path& file, const SensorRig& rig);
 
 // Opens a TUM RGB-D folder. Calibration: config.rig, else camera.yaml in the folder, else the
 // freiburg defaults named by the folder; none of them is an InputError.
