@@ -19,4 +19,8 @@ void add_eval_command(CLI::App& app, const GlobalOptions& global);
 // another of those formats.
 void add_dataset_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam generate SCENARIO.yaml --format tum|euroc --out DIR [--duration S] [--robots a,b]: run a
+// scenario and write each robot's stream as a sequence in DIR/<robot>/ with its ORB-SLAM3 settings.
+void add_generate_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools
