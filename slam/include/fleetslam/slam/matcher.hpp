@@ -1,6 +1,7 @@
 #pragma once
 // Descriptor matching between two frames A and B.
-//  - Brute force (reference): every pair, Hamming distance, ratio test.
+//  - Brute force (reference): every pair, Hamming distance, distance threshold, ratio test, one-to-one
+//    (no rotation check: a pure descriptor baseline).
 //  - Projection ("grid registration"): with T_A_B known or predicted, each feature of B that has a 3D
 //    point is projected into A and matched within a radius on A's feature grid, with ORB-SLAM's distance
 //    threshold, ratio test and rotation-consistency histogram.
@@ -8,6 +9,24 @@
 //    feature of A is projected back into B with T_B_A = T_A_B^-1 using A's own 3D point and searched
 //    within r2 = r2_over_r1 * r1; the pair is kept only if stage 2's best candidate is the same feature
 //    of B. A feature of A without a 3D point cannot be checked and is kept (monocular), counted apart.
+//
+// Details of the projection search (both stages; "seen" is the frame the point comes from, "searched"
+// the frame whose grid is queried):
+//  - Radius: radius_px * scale[level of the seen feature] (stage 2: r2_over_r1 times that, with A's level).
+//  - Levels: ORB-SLAM's scale prediction from the feature's own level, predicted = level +
+//    log(distance seen / distance searched) / log(scale_factor), clamped to the pyramid; candidates at
+//    levels within 1.5 of it (the predicted level +-1 when it is an integer; the window is symmetric, so
+//    with agreeing depths stage 2's window holds the level of the B feature stage 1 chose).
+//  - A point behind the searched camera or projecting outside its frame area (Frame::bounds, or the
+//    image) has no candidates: in stage 1 the B feature stays unmatched, in stage 2 the pair is rejected.
+//  - Stage 1 keeps the closest candidate when its distance <= max_distance and <= nn_ratio * the second
+//    closest (another feature); then one-to-one (several B features on one A feature: the closest wins,
+//    the first in B order on ties); then the rotation histogram: 30 bins of the keypoint angle difference
+//    (bin 0 centred on no rotation), matches outside the three fullest bins dropped (the second and third
+//    only count with >= 10 % of the first's matches, as in ORB-SLAM).
+//  - Stage 2 keeps the pair when its B feature is among the candidates and none is strictly closer to A's
+//    descriptor (a tie cannot tell them apart, so it does not overrule stage 1); no threshold or ratio.
+// Deterministic: results depend only on the inputs. Frames must be finalize()d (their grids are used).
 
 #include <cstdint>
 #include <optional>
@@ -22,7 +41,8 @@
 
 namespace fleetslam::slam {
 
-// Hamming distance of two 256-bit ORB descriptors (32 bytes each).
+// Hamming distance of two 256-bit ORB descriptors (32 bytes each, any alignment): four 64-bit popcounts,
+// with the POPCNT instruction where the CPU has it (chosen at load time on x86-64 Linux).
 int hamming_distance(const std::uint8_t* a, const std::uint8_t* b);
 
 struct MatcherConfig {
@@ -51,22 +71,26 @@ struct Match {
 };
 
 struct MatchResult {
-  std::vector<Match> matches;  // at most one per feature of A and per feature of B
+  std::vector<Match> matches;  // at most one per feature of A and per feature of B; sorted by A index
   int stage1_matches = 0;      // before cross-validation (== matches.size() without it)
-  int rejected_by_cross_check = 0;
-  int unchecked = 0;           // kept without a 3D point in A to check them
+  int rejected_by_cross_check = 0;  // stage1_matches == matches.size() + rejected_by_cross_check
+  int unchecked = 0;           // kept without a 3D point in A to check them (included in matches)
 };
 
 // Per-feature 3D points in a frame's camera frame (nullopt where unknown).
 using FeaturePoints = std::vector<std::optional<Eigen::Vector3d>>;
 
-// Points from each feature's own depth (RGB-D / stereo).
+// Points from each feature's own depth (RGB-D / stereo): Frame::unproject of every feature.
 FeaturePoints points_from_depth(const Frame& frame);
 
+// Each feature of B against every feature of A (radius_px, check_orientation, cross_validation and
+// r2_over_r1 unused). stage1_matches == matches.size().
 MatchResult match_brute_force(const Frame& a, const Frame& b, const MatcherConfig& config);
 
 // Projection matching (and cross-validation when config.cross_validation). p_b: 3D points of B's
-// features in B's camera frame; p_a: those of A (used by stage 2 only). T_a_b maps B-frame points to A.
+// features in B's camera frame; p_a: those of A (used by stage 2 only; may be empty without it).
+// T_a_b maps B-frame points to A. Sizes of p_a / p_b, descriptors (N x 32 CV_8UC1), levels and, for the
+// rotation check, keypoints are checked (InvariantError). Empty frames give no matches.
 MatchResult match_by_projection(const Frame& a, const FeaturePoints& p_a, const Frame& b, const FeaturePoints& p_b,
                                 const Eigen::Isometry3d& T_a_b, const MatcherConfig& config);
 

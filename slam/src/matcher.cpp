@@ -1,0 +1,307 @@
+// Descriptor matching between two frames (matcher.hpp): brute force, projection on A's feature grid and
+// the paper's two-stage cross-validation (PAPER.md section 2, paper section 3.2). match_stereo and
+// assign_rgbd_depth live with the front end.
+#include "fleetslam/slam/matcher.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fleetslam/core/error.hpp"
+
+// Hamming distances are the inner loop of every matcher. Without -mpopcnt (never forced here, DESIGN.md)
+// GCC turns __builtin_popcountll into a libgcc call; the functions that loop over descriptors are
+// therefore cloned for CPUs with POPCNT and picked at load time (ifunc), with a portable default.
+#if defined(__x86_64__) && defined(__linux__) && !defined(__POPCNT__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define FLEETSLAM_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#endif
+#endif
+#ifndef FLEETSLAM_POPCNT_CLONES
+#define FLEETSLAM_POPCNT_CLONES
+#endif
+
+namespace fleetslam::slam {
+namespace {
+
+constexpr int kDescriptorBytes = 32;
+constexpr int kNoDistance = std::numeric_limits<int>::max();
+constexpr int kHistogramBins = 30;
+// A rotation bin far smaller than the largest one is noise, not a second consistent rotation.
+constexpr double kMinBinShare = 0.1;
+// Half-width of the pyramid-level window around the predicted level. 1.5 keeps ORB-SLAM's "predicted
+// level +-1" for integer predictions and makes the window symmetric: when both frames' depths agree,
+// stage 2's window (predicted from A's level) contains the level of the B feature stage 1 paired.
+constexpr double kLevelWindow = 1.5;
+
+// Inlined into the POPCNT clones below, where the builtin becomes one instruction per word.
+inline int descriptor_distance(const std::uint8_t* a, const std::uint8_t* b) {
+  int distance = 0;
+  for (int offset = 0; offset < kDescriptorBytes; offset += 8) {
+    std::uint64_t wa = 0;
+    std::uint64_t wb = 0;
+    std::memcpy(&wa, a + offset, sizeof wa);  // memcpy: rows need not be 8-byte aligned
+    std::memcpy(&wb, b + offset, sizeof wb);
+    distance += __builtin_popcountll(wa ^ wb);
+  }
+  return distance;
+}
+
+// The closest and second-closest descriptor (on different features) among candidates.
+struct Nearest {
+  int index = -1;
+  int distance = kNoDistance;
+  int second_distance = kNoDistance;
+};
+
+// Ties keep the first candidate, so results do not depend on anything but the candidate order.
+inline void offer(Nearest& nearest, int index, int distance) {
+  if (distance < nearest.distance) {
+    nearest.second_distance = nearest.distance;
+    nearest.distance = distance;
+    nearest.index = index;
+  } else if (distance < nearest.second_distance) {
+    nearest.second_distance = distance;
+  }
+}
+
+FLEETSLAM_POPCNT_CLONES
+Nearest nearest_among(const std::uint8_t* query, const cv::Mat& descriptors, const std::vector<int>& candidates) {
+  Nearest nearest;
+  for (const int i : candidates) offer(nearest, i, descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)));
+  return nearest;
+}
+
+FLEETSLAM_POPCNT_CLONES
+Nearest nearest_of_all(const std::uint8_t* query, const cv::Mat& descriptors) {
+  Nearest nearest;
+  for (int i = 0; i < descriptors.rows; ++i) offer(nearest, i, descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)));
+  return nearest;
+}
+
+// Stage 2's test: `expected` is a candidate and no other candidate is strictly closer to the query (a tie
+// cannot tell the two apart, so it does not overrule stage 1).
+FLEETSLAM_POPCNT_CLONES
+bool is_nearest(const std::uint8_t* query, const cv::Mat& descriptors, const std::vector<int>& candidates,
+                int expected, int expected_distance) {
+  bool found = false;
+  for (const int i : candidates) {
+    if (i == expected) {
+      found = true;
+    } else if (descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)) < expected_distance) {
+      return false;
+    }
+  }
+  return found;
+}
+
+// ORB-SLAM's thresholds: an absolute distance bound, then best < nn_ratio * second best.
+bool passes_thresholds(const Nearest& nearest, const MatcherConfig& config) {
+  if (nearest.index < 0 || nearest.distance > config.max_distance) return false;
+  if (nearest.second_distance == kNoDistance) return true;
+  return static_cast<double>(nearest.distance) <= config.nn_ratio * static_cast<double>(nearest.second_distance);
+}
+
+void check_frame(const Frame& frame, const char* name, bool needs_angles) {
+  const auto n = frame.size();
+  const std::string which(name);
+  FLEETSLAM_CHECK(frame.level.size() == n, "frame " + which + ": one level per feature");
+  FLEETSLAM_CHECK(n == 0 || (frame.descriptors.rows == static_cast<int>(n) && frame.descriptors.cols == kDescriptorBytes &&
+                             frame.descriptors.type() == CV_8UC1),
+                  "frame " + which + ": descriptors must be N x 32 CV_8UC1");
+  FLEETSLAM_CHECK(!needs_angles || frame.keypoints.size() == n,
+                  "frame " + which + ": the rotation check needs one keypoint (angle) per feature");
+  for (const int l : frame.level) {
+    FLEETSLAM_CHECK(l >= 0 && static_cast<std::size_t>(l) < frame.pyramid.scale.size(),
+                    "frame " + which + ": feature level outside the scale pyramid");
+  }
+}
+
+// Pyramid levels at which a feature seen at `level` from `distance_seen` metres may be detected from
+// `distance_now` metres: the patch's image size scales with 1 / distance, so the level shifts by
+// log(distance_seen / distance_now) / log(scale_factor) (ORB-SLAM's scale prediction, here from the
+// feature's own level instead of a map point's distance range).
+struct LevelRange {
+  int min_level = 0;
+  int max_level = 0;
+};
+
+LevelRange predicted_levels(const ScalePyramid& pyramid, int level, double distance_seen, double distance_now) {
+  const int top = static_cast<int>(pyramid.scale.size()) - 1;
+  double predicted = level;
+  if (top > 0 && pyramid.scale_factor > 1.0 && distance_seen > 0.0 && distance_now > 0.0) {
+    predicted += std::log(distance_seen / distance_now) / std::log(pyramid.scale_factor);
+  }
+  predicted = std::clamp(predicted, 0.0, static_cast<double>(top));
+  return {std::max(0, static_cast<int>(std::ceil(predicted - kLevelWindow))),
+          std::min(top, static_cast<int>(std::floor(predicted + kLevelWindow)))};
+}
+
+// Features of `frame` around where camera-frame point p_cam projects, within radius_px, at the levels
+// predicted for a feature seen at `level` from distance_seen. Empty when p_cam is behind the camera or
+// projects outside the frame's area.
+// The area the frame's undistorted coordinates (and its grid) cover.
+bool in_frame_area(const Frame& frame, const Eigen::Vector2d& uv) {
+  const ImageBounds area =
+      frame.bounds.empty() ? ImageBounds::of_image(frame.camera.width(), frame.camera.height()) : frame.bounds;
+  return uv.x() >= area.min_u && uv.x() < area.max_u && uv.y() >= area.min_v && uv.y() < area.max_v;
+}
+
+std::vector<int> candidates_for(const Frame& frame, const Eigen::Vector3d& p_cam, double radius_px, int level,
+                                double distance_seen) {
+  const auto uv = frame.camera.project(p_cam);
+  if (!uv || !in_frame_area(frame, *uv)) return {};
+  const LevelRange levels = predicted_levels(frame.pyramid, level, distance_seen, p_cam.norm());
+  return frame.grid.features_in_area(frame.uv, frame.level, uv->x(), uv->y(), radius_px, levels.min_level,
+                                     levels.max_level);
+}
+
+// One-to-one: when several B features pick the same A feature, the closest descriptor wins (the first
+// in B order on ties). Returns the matches sorted by A index.
+std::vector<Match> keep_best_per_a(const std::vector<Match>& proposals, std::size_t size_a) {
+  std::vector<Match> best(size_a);
+  for (const Match& m : proposals) {
+    Match& slot = best[static_cast<std::size_t>(m.a)];
+    if (slot.a < 0 || m.distance < slot.distance) slot = m;
+  }
+  best.erase(std::remove_if(best.begin(), best.end(), [](const Match& m) { return m.a < 0; }), best.end());
+  return best;
+}
+
+// Bin of the keypoint angle difference (degrees), centred so that "no rotation" falls in bin 0.
+int rotation_bin(float angle_a_deg, float angle_b_deg) {
+  double diff = std::fmod(static_cast<double>(angle_a_deg) - static_cast<double>(angle_b_deg), 360.0);
+  if (diff < 0.0) diff += 360.0;
+  const int bin = static_cast<int>(std::lround(diff * kHistogramBins / 360.0));
+  return bin % kHistogramBins;
+}
+
+// ORB-SLAM's rotation consistency: a rigid motion turns every keypoint by about the same in-plane
+// angle, so only matches in the three most populated bins of the angle difference survive (the second
+// and third only when they hold at least kMinBinShare of the first).
+std::vector<Match> keep_consistent_rotation(const std::vector<Match>& matches, const Frame& a, const Frame& b) {
+  std::vector<int> bins(matches.size());
+  std::array<int, kHistogramBins> count{};
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    bins[i] = rotation_bin(a.keypoints[static_cast<std::size_t>(matches[i].a)].angle,
+                           b.keypoints[static_cast<std::size_t>(matches[i].b)].angle);
+    ++count[static_cast<std::size_t>(bins[i])];
+  }
+  std::array<int, kHistogramBins> order{};
+  for (int i = 0; i < kHistogramBins; ++i) order[static_cast<std::size_t>(i)] = i;
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) {
+    return count[static_cast<std::size_t>(x)] > count[static_cast<std::size_t>(y)];
+  });
+  std::array<bool, kHistogramBins> keep{};
+  const int largest = count[static_cast<std::size_t>(order[0])];
+  for (std::size_t rank = 0; rank < 3; ++rank) {
+    const int c = count[static_cast<std::size_t>(order[rank])];
+    if (c > 0 && (rank == 0 || c >= kMinBinShare * largest)) keep[static_cast<std::size_t>(order[rank])] = true;
+  }
+  std::vector<Match> kept;
+  kept.reserve(matches.size());
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    if (keep[static_cast<std::size_t>(bins[i])]) kept.push_back(matches[i]);
+  }
+  return kept;
+}
+
+// The shared tail of both matchers: one-to-one, then the rotation check.
+std::vector<Match> finish(const std::vector<Match>& proposals, const Frame& a, const Frame& b,
+                          const MatcherConfig& config) {
+  std::vector<Match> matches = keep_best_per_a(proposals, a.size());
+  if (config.check_orientation && !matches.empty()) matches = keep_consistent_rotation(matches, a, b);
+  return matches;
+}
+
+// Stage 1 (the single-stage matcher): each B feature with a 3D point, projected into A with T_a_b,
+// against A's features within radius_px * scale[level of the B feature].
+std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const FeaturePoints& p_b,
+                                    const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  std::vector<Match> proposals;
+  for (std::size_t ib = 0; ib < b.size(); ++ib) {
+    if (!p_b[ib]) continue;
+    const int level_b = b.level[ib];
+    const double radius = config.radius_px * b.pyramid.scale[static_cast<std::size_t>(level_b)];
+    const auto candidates = candidates_for(a, T_a_b * *p_b[ib], radius, level_b, p_b[ib]->norm());
+    const Nearest nearest = nearest_among(b.descriptors.ptr<std::uint8_t>(static_cast<int>(ib)), a.descriptors, candidates);
+    if (passes_thresholds(nearest, config)) proposals.push_back({nearest.index, static_cast<int>(ib), nearest.distance});
+  }
+  return finish(proposals, a, b, config);
+}
+
+// Stage 2: A's own 3D point of each stage-1 match, projected into B with T_b_a, searched within
+// r2 = r2_over_r1 * radius_px * scale[level of the A feature]; the pair stays only when the stage-1 B
+// feature is the closest candidate. A point of A behind B or outside B's image cannot confirm the pair.
+void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_a, const Frame& b,
+                    const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  const Eigen::Isometry3d T_b_a = T_a_b.inverse();
+  std::vector<Match> kept;
+  kept.reserve(result.matches.size());
+  for (const Match& m : result.matches) {
+    const auto ia = static_cast<std::size_t>(m.a);
+    if (!p_a[ia]) {  // monocular A feature: nothing to check with
+      ++result.unchecked;
+      kept.push_back(m);
+      continue;
+    }
+    const double radius = config.r2_over_r1 * config.radius_px * a.pyramid.scale[static_cast<std::size_t>(a.level[ia])];
+    const auto candidates = candidates_for(b, T_b_a * *p_a[ia], radius, a.level[ia], p_a[ia]->norm());
+    if (is_nearest(a.descriptors.ptr<std::uint8_t>(m.a), b.descriptors, candidates, m.b, m.distance)) {
+      kept.push_back(m);
+    } else {
+      ++result.rejected_by_cross_check;
+    }
+  }
+  result.matches = std::move(kept);
+}
+
+}  // namespace
+
+FLEETSLAM_POPCNT_CLONES
+int hamming_distance(const std::uint8_t* a, const std::uint8_t* b) { return descriptor_distance(a, b); }
+
+FeaturePoints points_from_depth(const Frame& frame) {
+  FeaturePoints points(frame.size());
+  for (std::size_t i = 0; i < frame.size(); ++i) points[i] = frame.unproject(i);
+  return points;
+}
+
+MatchResult match_brute_force(const Frame& a, const Frame& b, const MatcherConfig& config) {
+  check_frame(a, "A", false);
+  check_frame(b, "B", false);
+  MatchResult result;
+  if (a.size() == 0 || b.size() == 0) return result;
+  std::vector<Match> proposals;
+  for (int ib = 0; ib < b.descriptors.rows; ++ib) {
+    const Nearest nearest = nearest_of_all(b.descriptors.ptr<std::uint8_t>(ib), a.descriptors);
+    if (passes_thresholds(nearest, config)) proposals.push_back({nearest.index, ib, nearest.distance});
+  }
+  result.matches = keep_best_per_a(proposals, a.size());
+  result.stage1_matches = static_cast<int>(result.matches.size());
+  return result;
+}
+
+MatchResult match_by_projection(const Frame& a, const FeaturePoints& p_a, const Frame& b, const FeaturePoints& p_b,
+                                const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  check_frame(a, "A", config.check_orientation);
+  check_frame(b, "B", config.check_orientation);
+  FLEETSLAM_CHECK(p_b.size() == b.size(), "p_b needs one entry per feature of B");
+  FLEETSLAM_CHECK(!config.cross_validation || p_a.size() == a.size(), "p_a needs one entry per feature of A");
+  FLEETSLAM_CHECK(a.size() == 0 || !a.grid.empty(), "frame A has no feature grid (call finalize())");
+  FLEETSLAM_CHECK(!config.cross_validation || b.size() == 0 || !b.grid.empty(),
+                  "frame B has no feature grid (call finalize())");
+  MatchResult result;
+  if (a.size() == 0 || b.size() == 0) return result;
+  result.matches = project_b_into_a(a, b, p_b, T_a_b, config);
+  result.stage1_matches = static_cast<int>(result.matches.size());
+  if (config.cross_validation) cross_validate(result, a, p_a, b, T_a_b, config);
+  return result;
+}
+
+}  // namespace fleetslam::slam
