@@ -122,44 +122,50 @@ void check_frame(const Frame& frame, const char* name, bool needs_angles) {
   }
 }
 
-// Pyramid levels at which a feature seen at `level` from `distance_seen` metres may be detected from
-// `distance_now` metres: the patch's image size scales with 1 / distance, so the level shifts by
-// log(distance_seen / distance_now) / log(scale_factor) (ORB-SLAM's scale prediction, here from the
-// feature's own level instead of a map point's distance range).
-struct LevelRange {
-  int min_level = 0;
-  int max_level = 0;
-};
-
-LevelRange predicted_levels(const ScalePyramid& pyramid, int level, double distance_seen, double distance_now) {
-  const int top = static_cast<int>(pyramid.scale.size()) - 1;
-  double predicted = level;
-  if (top > 0 && pyramid.scale_factor > 1.0 && distance_seen > 0.0 && distance_now > 0.0) {
-    predicted += std::log(distance_seen / distance_now) / std::log(pyramid.scale_factor);
+// A frame being searched, with what every query into it needs computed once per call.
+class SearchedFrame {
+ public:
+  explicit SearchedFrame(const Frame& frame)
+      : frame_(frame),
+        area_(frame.bounds.empty() ? ImageBounds::of_image(frame.camera.width(), frame.camera.height())
+                                   : frame.bounds),
+        top_level_(static_cast<int>(frame.pyramid.scale.size()) - 1),
+        inv_log_scale_(top_level_ > 0 && frame.pyramid.scale_factor > 1.0 ? 1.0 / std::log(frame.pyramid.scale_factor)
+                                                                          : 0.0) {
+    // uv are undistorted coordinates, so projecting with the plain pinhole is exact (frame.hpp).
+    FLEETSLAM_CHECK(frame.size() == 0 || frame.camera.distortion().is_zero(),
+                    "matcher: Frame::camera must be the distortion-free camera of the undistorted uv");
   }
-  predicted = std::clamp(predicted, 0.0, static_cast<double>(top));
-  return {std::max(0, static_cast<int>(std::ceil(predicted - kLevelWindow))),
-          std::min(top, static_cast<int>(std::floor(predicted + kLevelWindow)))};
-}
 
-// Features of `frame` around where camera-frame point p_cam projects, within radius_px, at the levels
-// predicted for a feature seen at `level` from distance_seen. Empty when p_cam is behind the camera or
-// projects outside the frame's area.
-// The area the frame's undistorted coordinates (and its grid) cover.
-bool in_frame_area(const Frame& frame, const Eigen::Vector2d& uv) {
-  const ImageBounds area =
-      frame.bounds.empty() ? ImageBounds::of_image(frame.camera.width(), frame.camera.height()) : frame.bounds;
-  return uv.x() >= area.min_u && uv.x() < area.max_u && uv.y() >= area.min_v && uv.y() < area.max_v;
-}
+  // Features around where camera-frame point p_cam projects, within radius_px, at the levels predicted
+  // for a feature seen at `level` from distance_seen metres. Empty when p_cam is behind the camera or
+  // projects outside the frame's area (Frame::bounds, or the image).
+  std::vector<int> candidates(const Eigen::Vector3d& p_cam, double radius_px, int level, double distance_seen) const {
+    if (!(p_cam.z() > core::PinholeCamera::min_depth)) return {};
+    const double u = frame_.camera.fx() * p_cam.x() / p_cam.z() + frame_.camera.cx();
+    const double v = frame_.camera.fy() * p_cam.y() / p_cam.z() + frame_.camera.cy();
+    if (!(u >= area_.min_u && u < area_.max_u && v >= area_.min_v && v < area_.max_v)) return {};
+    const double predicted = predicted_level(level, distance_seen, p_cam.norm());
+    const int min_level = std::max(0, static_cast<int>(std::ceil(predicted - kLevelWindow)));
+    const int max_level = std::min(top_level_, static_cast<int>(std::floor(predicted + kLevelWindow)));
+    return frame_.grid.features_in_area(frame_.uv, frame_.level, u, v, radius_px, min_level, max_level);
+  }
 
-std::vector<int> candidates_for(const Frame& frame, const Eigen::Vector3d& p_cam, double radius_px, int level,
-                                double distance_seen) {
-  const auto uv = frame.camera.project(p_cam);
-  if (!uv || !in_frame_area(frame, *uv)) return {};
-  const LevelRange levels = predicted_levels(frame.pyramid, level, distance_seen, p_cam.norm());
-  return frame.grid.features_in_area(frame.uv, frame.level, uv->x(), uv->y(), radius_px, levels.min_level,
-                                     levels.max_level);
-}
+ private:
+  // ORB-SLAM's scale prediction, from the feature's own level instead of a map point's distance range:
+  // a patch's image size scales with 1 / distance, so seen at `level` from distance_seen it appears
+  // log(distance_seen / distance_now) / log(scale_factor) levels higher from distance_now.
+  double predicted_level(int level, double distance_seen, double distance_now) const {
+    double predicted = level;
+    if (distance_seen > 0.0 && distance_now > 0.0) predicted += std::log(distance_seen / distance_now) * inv_log_scale_;
+    return std::clamp(predicted, 0.0, static_cast<double>(top_level_));
+  }
+
+  const Frame& frame_;
+  ImageBounds area_;
+  int top_level_;
+  double inv_log_scale_;
+};
 
 // One-to-one: when several B features pick the same A feature, the closest descriptor wins (the first
 // in B order on ties). Returns the matches sorted by A index.
@@ -223,12 +229,13 @@ std::vector<Match> finish(const std::vector<Match>& proposals, const Frame& a, c
 // against A's features within radius_px * scale[level of the B feature].
 std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const FeaturePoints& p_b,
                                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  const SearchedFrame searched(a);
   std::vector<Match> proposals;
   for (std::size_t ib = 0; ib < b.size(); ++ib) {
     if (!p_b[ib]) continue;
     const int level_b = b.level[ib];
     const double radius = config.radius_px * b.pyramid.scale[static_cast<std::size_t>(level_b)];
-    const auto candidates = candidates_for(a, T_a_b * *p_b[ib], radius, level_b, p_b[ib]->norm());
+    const auto candidates = searched.candidates(T_a_b * *p_b[ib], radius, level_b, p_b[ib]->norm());
     const Nearest nearest = nearest_among(b.descriptors.ptr<std::uint8_t>(static_cast<int>(ib)), a.descriptors, candidates);
     if (passes_thresholds(nearest, config)) proposals.push_back({nearest.index, static_cast<int>(ib), nearest.distance});
   }
@@ -241,6 +248,7 @@ std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const Featur
 void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_a, const Frame& b,
                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
   const Eigen::Isometry3d T_b_a = T_a_b.inverse();
+  const SearchedFrame searched(b);
   std::vector<Match> kept;
   kept.reserve(result.matches.size());
   for (const Match& m : result.matches) {
@@ -251,7 +259,7 @@ void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_
       continue;
     }
     const double radius = config.r2_over_r1 * config.radius_px * a.pyramid.scale[static_cast<std::size_t>(a.level[ia])];
-    const auto candidates = candidates_for(b, T_b_a * *p_a[ia], radius, a.level[ia], p_a[ia]->norm());
+    const auto candidates = searched.candidates(T_b_a * *p_a[ia], radius, a.level[ia], p_a[ia]->norm());
     if (is_nearest(a.descriptors.ptr<std::uint8_t>(m.a), b.descriptors, candidates, m.b, m.distance)) {
       kept.push_back(m);
     } else {

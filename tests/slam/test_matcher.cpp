@@ -10,10 +10,12 @@
 #include <bitset>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <random>
 #include <set>
 #include <vector>
 
+#include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 #include "fleetslam/slam/matcher.hpp"
 
@@ -473,6 +475,39 @@ TEST(Projection, RotationHistogramRemovesInconsistentMatches) {
   EXPECT_EQ(turned_matches(project(scene, MatcherConfig{})), 0);
 }
 
+// Matches per in-plane turn of B's keypoints, for scenes where B feature i is turned by turn_of(i).
+template <class TurnOf>
+std::map<int, int> matches_per_turn(Scene scene, TurnOf turn_of) {
+  std::map<int, int> turn_by_id;
+  for (std::size_t ib = 0; ib < scene.fb.size(); ++ib) {
+    const int turn = turn_of(ib);
+    scene.fb[ib].angle_deg += static_cast<float>(turn);
+    turn_by_id[scene.fb[ib].id] = turn;
+  }
+  scene.build();
+  std::map<int, int> count;
+  for (const auto& m : project(scene, single_stage()).matches) ++count[turn_by_id[scene.fb[static_cast<std::size_t>(m.b)].id]];
+  return count;
+}
+
+TEST(Projection, RotationHistogramKeepsTheThreeFullestBins) {
+  const Scene scene = make_scene(seeded(52));
+  // 45 % unturned, 20 % by 60 degrees, 15 % by 120, 10 % each by 180 and 240: the last two go.
+  auto count = matches_per_turn(scene, [](std::size_t i) {
+    const std::size_t k = i % 20;
+    return k < 9 ? 0 : k < 13 ? 60 : k < 16 ? 120 : k < 18 ? 180 : 240;
+  });
+  EXPECT_GT(count[0], 100);
+  EXPECT_GT(count[60], 40);
+  EXPECT_GT(count[120], 30);
+  EXPECT_EQ(count[180], 0);
+  EXPECT_EQ(count[240], 0);
+  // A second bin below 10 % of the first is noise, not a second rotation.
+  count = matches_per_turn(scene, [](std::size_t i) { return i % 20 == 0 ? 90 : 0; });
+  EXPECT_GT(count[0], 200);
+  EXPECT_EQ(count[90], 0);
+}
+
 // Two hand-made frames: B's features at depth 2 m with an identity pose, so each projects onto its own uv.
 Scene hand_scene(const std::vector<Feature>& fa, const std::vector<Feature>& fb) {
   Scene scene;
@@ -502,6 +537,45 @@ TEST(Projection, CandidatesOnlyNearThePredictedLevel) {
     const Scene scene = hand_scene({feature_at(302.0, 200.0, level_a, d, 0)}, {feature_at(300.0, 200.0, 1, d, 0)});
     EXPECT_EQ(project(scene, single_stage()).matches.size(), level_a <= 2 ? 1U : 0U) << "level " << level_a;
   }
+}
+
+TEST(Projection, LevelPredictedFromTheDistanceRatio) {
+  std::mt19937 rng(64);
+  const Descriptor d = random_descriptor(rng);
+  // B sees the point at level 0 from 2 m; A is 1 m closer, so the patch is twice as large there:
+  // predicted level log(2) / log(1.2) = 3.8, candidates at levels 3 and 4 (and 5).
+  for (const int level_a : {0, 2, 4}) {
+    Scene scene = hand_scene({{Eigen::Vector2d(320.0, 240.0), level_a, 30.0F, d, 1.0, 0}},
+                             {{Eigen::Vector2d(319.5, 239.5), 0, 30.0F, d, 2.0, 0}});
+    scene.T_a_b = core::make_pose(Eigen::Vector3d(0.0, 0.0, -1.0), Eigen::Quaterniond::Identity());
+    EXPECT_EQ(project(scene, MatcherConfig{}).matches.size(), level_a == 4 ? 1U : 0U) << "level " << level_a;
+  }
+}
+
+TEST(CrossValidation, KeepsAPairOneLevelApart) {
+  std::mt19937 rng(65);
+  const Descriptor d = random_descriptor(rng);
+  for (const int level_a : {2, 3}) {  // B at level 2, same distance: the window is symmetric
+    const Scene scene = hand_scene({feature_at(301.0, 200.0, level_a, d, 0)}, {feature_at(300.0, 200.0, 2, d, 0)});
+    const MatchResult result = project(scene, MatcherConfig{});
+    EXPECT_EQ(result.matches.size(), 1U) << "level " << level_a;
+    EXPECT_EQ(result.rejected_by_cross_check, 0);
+  }
+}
+
+TEST(Matchers, InconsistentInputIsAnInvariantError) {
+  const Scene scene = make_scene(seeded(66));
+  EXPECT_THROW(match_by_projection(scene.a, scene.p_a, scene.b, FeaturePoints(3), scene.T_a_b, MatcherConfig{}),
+               InvariantError);
+  EXPECT_THROW(match_by_projection(scene.a, FeaturePoints(3), scene.b, scene.p_b, scene.T_a_b, MatcherConfig{}),
+               InvariantError);
+  Frame no_angles = scene.b;
+  no_angles.keypoints.clear();
+  EXPECT_THROW(match_by_projection(scene.a, scene.p_a, no_angles, scene.p_b, scene.T_a_b, MatcherConfig{}),
+               InvariantError);
+  MatcherConfig no_rotation_check = single_stage();
+  no_rotation_check.check_orientation = false;
+  EXPECT_NO_THROW(match_by_projection(scene.a, FeaturePoints(3), no_angles, scene.p_b, scene.T_a_b, no_rotation_check));
 }
 
 TEST(Projection, RatioTestAndDistanceThreshold) {
