@@ -182,6 +182,7 @@ std::vector<Match> keep_best_per_a(const std::vector<Match>& proposals, std::siz
 // Bin of the keypoint angle difference (degrees), centred so that "no rotation" falls in bin 0.
 int rotation_bin(float angle_a_deg, float angle_b_deg) {
   double diff = std::fmod(static_cast<double>(angle_a_deg) - static_cast<double>(angle_b_deg), 360.0);
+  if (!std::isfinite(diff)) return 0;  // a NaN angle must not index outside the histogram
   if (diff < 0.0) diff += 360.0;
   const int bin = static_cast<int>(std::lround(diff * kHistogramBins / 360.0));
   return bin % kHistogramBins;
