@@ -1,17 +1,30 @@
 #pragma once
 // When does the current frame become a keyframe? Policies behind one interface (PAPER.md section 3):
 //  - orbslam3: ORB-SLAM3's rules (max/min frames since the last keyframe, tracked-point ratio against the
-//    reference keyframe, close-point criterion for RGB-D/stereo, local mapping idle).
+//    reference keyframe, close-point criterion for RGB-D/stereo, local mapping idle):
+//      c1a  frames since the last keyframe >= max frames (orbslam_max_frames, 0: fps)
+//      c1b  frames since the last keyframe >= min frames and local mapping idle
+//      c1c  depth sensor and (tracked < orbslam_weak_ratio * reference or the close-point need)
+//      c2   tracked < ratio * reference, or the close-point need (the "> 15" is the min_inliers gate)
+//    close-point need: close_tracked < orbslam_close_tracked_max and close_untracked > orbslam_close_untracked_min
+//    (depth sensors only). ratio: orbslam_ratio_rgbd / _mono, orbslam_ratio_few_keyframes with < 2 keyframes.
+//    A keyframe when (c1a or c1b or c1c) and c2 and, when local mapping is busy, a depth sensor with fewer
+//    than orbslam_max_queued keyframes waiting (monocular waits for local mapping).
 //  - exponential: T_H = sum_x w_x (exp(x) - 1) over X = [alpha T_I, beta R_A, gamma T_R, delta R_O];
 //    a keyframe when T_H > Q. Factors normalised so that 1 means "a keyframe is clearly due":
 //      T_I = time since the last keyframe / time_scale_s
-//      R_A = 1 - tracked reference points / reference points
+//      R_A = 1 - tracked reference points / reference points (1 when the reference has no points)
 //      T_R = distance since the reference keyframe / (reference median depth * translation_ratio)
 //      R_O = rotation angle since the reference keyframe / rotation_scale_rad
-//  - fixed_interval: every N frames (baseline).
-// Hard gates shared by all: no keyframe with fewer than min_inliers tracked points; a keyframe is forced
-// when tracking gets weak (tracked points below weak_tracking_inliers) and enough inliers remain.
-// Every decision carries its factors so a run can show why a keyframe was (not) taken.
+//    Local mapping's state does not enter (the paper's rule has no such term).
+//  - fixed_interval: a keyframe when frames_since_last_keyframe >= interval_frames (baseline).
+// Hard gates shared by all, applied after the policy: no keyframe with fewer than min_inliers tracked points;
+// a keyframe is forced when tracking gets weak (tracked points below weak_tracking_inliers) and enough
+// inliers remain (weak_tracking_inliers 0 switches that gate off).
+// Every decision carries its factors so a run can show why a keyframe was (not) taken:
+//  exponential: T_I R_A T_R R_O, term_T_I term_R_A term_T_R term_R_O, T_H, Q
+//  orbslam3:    tracked, reference, ratio, c1a c1b c1c c2 need_close (0/1)
+//  fixed:       frames, interval
 
 #include <memory>
 #include <string>
@@ -38,6 +51,7 @@ struct KeyframeContext {
   int close_untracked = 0;              // close features with depth but no map point
   bool has_depth = false;               // RGB-D or stereo
   bool local_mapping_idle = true;
+  int local_mapping_queue = 0;          // keyframes waiting for local mapping (orbslam3 when it is busy)
   double fps = 30.0;
 };
 
@@ -60,6 +74,11 @@ struct KeyframePolicyConfig {
   double orbslam_ratio_mono = 0.9;
   int orbslam_max_frames = 0;            // 0: use fps
   int orbslam_min_frames = 0;
+  double orbslam_ratio_few_keyframes = 0.4;  // thRefRatio while the map has fewer than 2 keyframes
+  double orbslam_weak_ratio = 0.25;          // c1c: tracking much weaker than the reference
+  int orbslam_close_tracked_max = 100;       // close-point need: few close points tracked ...
+  int orbslam_close_untracked_min = 70;      // ... and many close points that could become map points
+  int orbslam_max_queued = 3;                // busy local mapping still takes keyframes below this queue
   // exponential
   double alpha = 1.0, beta = 1.0, gamma = 1.0, delta = 1.0;    // factor gains inside exp
   double w_time = 0.25, w_covisibility = 1.0, w_translation = 1.0, w_rotation = 1.0;  // weights w_x
@@ -81,6 +100,11 @@ struct KeyframePolicyConfig {
     v("orbslam_ratio_mono", orbslam_ratio_mono, core::Limits<double>{0.0, 1.0});
     v("orbslam_max_frames", orbslam_max_frames, core::Limits<int>{0, 100000});
     v("orbslam_min_frames", orbslam_min_frames, core::Limits<int>{0, 100000});
+    v("orbslam_ratio_few_keyframes", orbslam_ratio_few_keyframes, core::Limits<double>{0.0, 1.0});
+    v("orbslam_weak_ratio", orbslam_weak_ratio, core::Limits<double>{0.0, 1.0});
+    v("orbslam_close_tracked_max", orbslam_close_tracked_max, core::Limits<int>{0, 100000});
+    v("orbslam_close_untracked_min", orbslam_close_untracked_min, core::Limits<int>{0, 100000});
+    v("orbslam_max_queued", orbslam_max_queued, core::Limits<int>{0, 1000});
     v("alpha", alpha, core::Limits<double>{0.0, 100.0});
     v("beta", beta, core::Limits<double>{0.0, 100.0});
     v("gamma", gamma, core::Limits<double>{0.0, 100.0});

@@ -2,7 +2,10 @@
 // Ceres optimisation of poses and points with a robust (Huber) kernel and chi-square outlier rejection,
 // as ORB-SLAM does it: pose-only optimisation for tracking, local bundle adjustment for local mapping.
 // Residuals are in pixels weighted by the keypoint's level (inv_sigma2); stereo/RGB-D observations
-// carry a third residual on the (virtual) right u coordinate, u_R = u - bf / z.
+// carry a third residual on the (virtual) right u coordinate, u_R = u - bf / z. The chi-square statistic
+// is the weighted squared residual, inv_sigma2 * |e|^2; Huber's delta is sqrt(chi2 threshold).
+// A pose is a unit quaternion on Ceres' EigenQuaternionManifold plus a translation; Jacobians are
+// analytic. Single-threaded by default and free of randomness: the same input gives the same bits.
 
 #include <vector>
 
@@ -46,12 +49,16 @@ struct PoseObservation {
 
 struct PoseResult {
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
-  std::vector<bool> outlier;  // per observation
+  std::vector<bool> outlier;  // per observation, classified at the final pose
   int inliers = 0;
-  bool ok = false;            // false with fewer than 3 observations or a failed solve
+  bool ok = false;            // false with fewer than 3 observations, fewer than 3 inliers left, or a failed solve
 };
 
 // camera: undistorted intrinsics; bf: baseline * fx (used by stereo observations).
+// config.rounds rounds of config.iterations_per_round iterations: each optimises over the current inliers
+// (Huber, except in the last round, which is plain least squares), then classifies every observation by
+// chi2 at the new pose (earlier outliers may come back). Points not in front of the camera are outliers.
+// The pose carries over from round to round. With fewer than 3 observations the initial pose is returned.
 PoseResult optimize_pose(const core::PinholeCamera& camera, double bf, const std::vector<PoseObservation>& observations,
                          const Eigen::Isometry3d& T_cam_world_initial, const OptimizerConfig& config);
 
@@ -78,13 +85,18 @@ struct BaResult {
   std::vector<Eigen::Isometry3d> T_cam_world;  // per keyframe (fixed ones unchanged)
   std::vector<Eigen::Vector3d> points_world;
   std::vector<bool> outlier;                   // per observation, after the final round
-  double initial_rms_px = 0.0;                 // reprojection RMS of inlier observations before/after
+  // Reprojection RMS, sqrt(mean |uv - projection|^2) in pixels (left image, unweighted), over the
+  // observations that are inliers after the final round, at the input state and at the result.
+  double initial_rms_px = 0.0;
   double final_rms_px = 0.0;
   bool ok = false;
 };
 
-// Local BA with Ceres (SPARSE_SCHUR with SuiteSparse when available), two rounds: optimise with Huber,
-// drop chi-square outliers, optimise again. At least one keyframe must be fixed (gauge).
+// Local BA with Ceres (SPARSE_SCHUR with SuiteSparse when available, points eliminated first), two
+// passes of config.iterations_per_round iterations: optimise with Huber, drop chi-square outliers and
+// points behind their camera, optimise again without the kernel (as ORB-SLAM2), classify once more.
+// At least one keyframe must be fixed (gauge): otherwise ok is false and the input is returned.
+// Observations naming a keyframe or point out of range are a broken invariant (FLEETSLAM_CHECK).
 BaResult bundle_adjust(const core::PinholeCamera& camera, double bf, const BaProblem& problem,
                        const OptimizerConfig& config);
 
