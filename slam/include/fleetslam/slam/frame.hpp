@@ -21,7 +21,8 @@ using KeyframeId = std::int64_t;
 inline constexpr MapPointId kNoMapPoint = -1;
 
 // Scale of each pyramid level: scale[l] = scale_factor^l; sigma2[l] = scale[l]^2 (the variance of a
-// keypoint's position at that level, in level-0 pixels^2).
+// keypoint's position at that level, in level-0 pixels^2). make() throws std::invalid_argument for
+// levels < 1 or a scale_factor that is not finite and >= 1.
 struct ScalePyramid {
   int levels = 8;
   double scale_factor = 1.2;
@@ -33,16 +34,40 @@ struct ScalePyramid {
   static ScalePyramid make(int levels, double scale_factor);
 };
 
+// The region undistorted pixel coordinates of an image can fall in: [min_u, max_u) x [min_v, max_v).
+struct ImageBounds {
+  double min_u = 0.0;
+  double max_u = 0.0;
+  double min_v = 0.0;
+  double max_v = 0.0;
+
+  bool empty() const { return !(max_u > min_u && max_v > min_v); }
+  // The pixel area of a distortion-free image: [-0.5, width - 0.5) x [-0.5, height - 0.5).
+  static ImageBounds of_image(int width, int height);
+};
+
+// Bounding box of the raw image's border (sampled every few pixels, pixel edges included) mapped into
+// the undistorted camera: every raw pixel undistorts inside it (ORB-SLAM undistorts only the four
+// corners, which cuts off the bulging edges of barrel distortion). Border points whose undistortion
+// fails are skipped; a camera without distortion gives ImageBounds::of_image.
+ImageBounds undistorted_image_bounds(const core::PinholeCamera& raw);
+
 // Buckets of feature indices over the undistorted image for radius queries (ORB-SLAM's 64x48 grid).
+// The grid borrows nothing: queries take the same uv (and level) vectors it was built from.
 class FeatureGrid {
  public:
   FeatureGrid() = default;
-  // Features outside [min_u, max_u) x [min_v, max_v) are not indexed.
+  // Features outside [min_u, max_u) x [min_v, max_v) (and non-finite ones) are not indexed. An empty
+  // area (max <= min) is widened to one pixel so that the grid stays valid.
   FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, double max_u, double min_v, double max_v,
               int cols = 64, int rows = 48);
+  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, const ImageBounds& bounds, int cols = 64, int rows = 48)
+      : FeatureGrid(uv, bounds.min_u, bounds.max_u, bounds.min_v, bounds.max_v, cols, rows) {}
 
-  // Indices of features within radius_px of (u, v) (square test then exact distance), optionally only
-  // those whose level is in [min_level, max_level] (-1: no bound). Sorted ascending.
+  // Indices of indexed features at distance <= radius_px of (u, v) (cells overlapping the query square,
+  // then the exact distance), optionally only those whose level is in [min_level, max_level] (-1: no
+  // bound; `level` may be empty when neither bound is given). Sorted ascending. A non-finite query or
+  // a negative radius gives no features.
   std::vector<int> features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
                                     double u, double v, double radius_px, int min_level = -1,
                                     int max_level = -1) const;
@@ -63,8 +88,11 @@ struct Frame {
   ScalePyramid pyramid;
   double bf = 0.0;             // baseline * fx (stereo: real; RGB-D: virtual); 0 monocular
   double close_depth_m = 0.0;  // features nearer than this are "close" (ORB-SLAM ThDepth in metres)
+  ImageBounds bounds;          // where uv can lie (empty: finalize() uses camera's image area)
 
-  std::vector<cv::KeyPoint> keypoints;  // as detected in the raw image (octave = level, angle in degrees)
+  // As detected in the image features were extracted from: the raw image, or the rectified left image
+  // of a stereo rig that needed rectification (octave = level, angle in degrees).
+  std::vector<cv::KeyPoint> keypoints;
   std::vector<Eigen::Vector2d> uv;      // undistorted pixel coordinates
   std::vector<int> level;               // pyramid level of each feature
   cv::Mat descriptors;                  // N x 32, CV_8UC1 (rBRIEF)
@@ -79,9 +107,13 @@ struct Frame {
 
   std::size_t size() const { return uv.size(); }
   bool has_depth(std::size_t i) const { return depth_m[i] > 0.0; }
-  // Camera-frame point of feature i from its depth; nullopt without depth.
+  // Camera-frame point of feature i from its depth and uv; nullopt without depth. i < size() (checked).
   std::optional<Eigen::Vector3d> unproject(std::size_t i) const;
-  // Resets map_points/outlier to one unmatched entry per feature and builds the grid.
+  // Makes the per-feature vectors consistent and builds the grid: depth_m / u_right left empty are
+  // filled with "unknown" (-1), map_points/outlier are reset to one unmatched inlier entry per feature,
+  // and the grid covers `bounds` (or the camera's image area when bounds is empty, or the features'
+  // bounding box when the camera has no size). Throws InvariantError when keypoints, uv, level,
+  // descriptors rows, depth_m or u_right disagree in size.
   void finalize();
 };
 

@@ -94,15 +94,24 @@ MatchResult match_brute_force(const Frame& a, const Frame& b, const MatcherConfi
 MatchResult match_by_projection(const Frame& a, const FeaturePoints& p_a, const Frame& b, const FeaturePoints& p_b,
                                 const Eigen::Isometry3d& T_a_b, const MatcherConfig& config);
 
-// Stereo stripe search for rectified pairs (no cross-validation here, PAPER.md): for each left feature,
-// right features on rows within +-2 sigma of its level, disparity in [0, bf / min_depth], best Hamming
-// distance under max_distance, then sub-pixel refinement by SAD over an 11x11 window and a parabola fit.
-// Fills depth_m and u_right of `left` (left.uv must be those of the rectified images).
+// Stereo stripe search for rectified pairs (no cross-validation here, PAPER.md), after ORB-SLAM's
+// ComputeStereoMatches: for each left feature, the right features of levels within +-1 of its level on
+// rows within +-row_band_scales * scale of their level, with u_right in [u - bf / min_depth_m, u]; the best
+// Hamming distance below max_distance wins. Sub-pixel refinement on the left feature's level image: the
+// (2 window_half_px + 1)^2 window around the left feature is compared by SAD (each window minus its mean,
+// which absorbs a brightness offset between the cameras) at the right match's column +-search_half_px;
+// a minimum at either end of the search is rejected, a parabola through the minimum and its neighbours
+// gives the sub-pixel offset, and a disparity outside (0, bf / min_depth_m) is rejected. Last, matches
+// whose SAD exceeds outlier_median_factor * median SAD (ORB-SLAM's 1.5 * 1.4) are dropped.
+// Fills depth_m = bf / disparity and u_right of `left` (-1 for features without a match); left.uv and
+// left.keypoints must be those of the rectified left image, left.bf > 0 (checked).
 struct StereoMatchConfig {
   int max_distance = 75;  // (TH_HIGH + TH_LOW) / 2
   double min_depth_m = 0.05;
   int window_half_px = 5;
   int search_half_px = 5;
+  double row_band_scales = 2.0;         // half-height of a right feature's row band, in its level's scale
+  double outlier_median_factor = 2.1;   // ORB-SLAM: 1.5 * 1.4 * median SAD
 
   template <class V>
   void visit(V& v) {
@@ -110,15 +119,26 @@ struct StereoMatchConfig {
     v("min_depth_m", min_depth_m, core::Limits<double>{0.001, 100.0});
     v("window_half_px", window_half_px, core::Limits<int>{1, 20});
     v("search_half_px", search_half_px, core::Limits<int>{1, 20});
+    v("row_band_scales", row_band_scales, core::Limits<double>{0.0, 20.0});
+    v("outlier_median_factor", outlier_median_factor, core::Limits<double>{0.1, 100.0});
   }
 };
-// left_image/right_image: rectified gray pyramids' level-0 images (CV_8UC1); right_keypoints and
-// right_descriptors: the right image's ORB features. Returns the number of left features given depth.
+// left_image/right_image: rectified gray level-0 images (CV_8UC1, checked); their pyramids
+// are rebuilt with left.pyramid as OrbExtractor builds them. right_keypoints and right_descriptors: the
+// right image's ORB features (level-0 coordinates, octave = level). Returns the number of left
+// features given depth.
 int match_stereo(Frame& left, const cv::Mat& left_image, const std::vector<cv::KeyPoint>& right_keypoints,
                  const cv::Mat& right_descriptors, const cv::Mat& right_image, const StereoMatchConfig& config);
+// The same on pyramids already built (OrbFeatures::levels of both images): no image is resized again.
+int match_stereo_levels(Frame& left, const std::vector<cv::Mat>& left_levels,
+                        const std::vector<cv::KeyPoint>& right_keypoints, const cv::Mat& right_descriptors,
+                        const std::vector<cv::Mat>& right_levels, const StereoMatchConfig& config);
 
-// RGB-D: depth of each feature from the registered depth image (metres, 0 = none) at its raw keypoint
-// position, and the virtual right coordinate u - bf / depth. Returns the number of features given depth.
+// RGB-D: depth of each feature from the registered depth image (CV_32FC1, metres, 0 = none; checked) at
+// its raw keypoint position rounded to the nearest pixel, and the virtual right coordinate
+// u_right = uv.x - bf / depth (left -1 when bf <= 0). Readings that are not finite or outside
+// [min_depth_m, max_depth_m], and keypoints outside the depth image, give no depth (-1). Returns the
+// number of features given depth.
 int assign_rgbd_depth(Frame& frame, const cv::Mat& depth_m, double min_depth_m, double max_depth_m);
 
 }  // namespace fleetslam::slam

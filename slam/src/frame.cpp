@@ -1,0 +1,171 @@
+#include "fleetslam/slam/frame.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::slam {
+namespace {
+
+// Spacing of the border samples in undistorted_image_bounds: fine enough that the bulge of any
+// calibrated radial distortion between two samples stays far below a pixel.
+constexpr int kBorderSampleStepPx = 4;
+
+// Inclusive range [first, last] of cells that [lo, hi] overlaps along one axis, clamped to the grid;
+// first > last when it misses the grid.
+struct CellRange {
+  int first = 0;
+  int last = -1;
+};
+
+CellRange overlapping_cells(double lo, double hi, double origin, double cell_size, int count) {
+  const double first = std::floor((lo - origin) / cell_size);
+  const double last = std::floor((hi - origin) / cell_size);
+  if (last < 0.0 || first >= count) return {};
+  return {static_cast<int>(std::max(first, 0.0)), static_cast<int>(std::min(last, count - 1.0))};
+}
+
+bool level_in_bounds(int level, int min_level, int max_level) {
+  return (min_level < 0 || level >= min_level) && (max_level < 0 || level <= max_level);
+}
+
+ImageBounds bounding_box(const std::vector<Eigen::Vector2d>& uv) {
+  ImageBounds box{std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest(),
+                  std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest()};
+  for (const Eigen::Vector2d& p : uv) {
+    if (!p.allFinite()) continue;
+    box.min_u = std::min(box.min_u, p.x());
+    box.max_u = std::max(box.max_u, p.x());
+    box.min_v = std::min(box.min_v, p.y());
+    box.max_v = std::max(box.max_v, p.y());
+  }
+  if (box.min_u > box.max_u) return {};
+  // The grid's upper bounds are exclusive: step past the largest coordinates.
+  box.max_u += 1.0;
+  box.max_v += 1.0;
+  return box;
+}
+
+}  // namespace
+
+ScalePyramid ScalePyramid::make(int levels, double scale_factor) {
+  if (levels < 1) throw std::invalid_argument("ScalePyramid: levels must be >= 1, got " + std::to_string(levels));
+  if (!(std::isfinite(scale_factor) && scale_factor >= 1.0)) {
+    throw std::invalid_argument("ScalePyramid: scale_factor must be finite and >= 1, got " +
+                                std::to_string(scale_factor));
+  }
+  ScalePyramid p;
+  p.levels = levels;
+  p.scale_factor = scale_factor;
+  double s = 1.0;
+  for (int l = 0; l < levels; ++l, s *= scale_factor) {
+    p.scale.push_back(s);
+    p.inv_scale.push_back(1.0 / s);
+    p.sigma2.push_back(s * s);
+    p.inv_sigma2.push_back(1.0 / (s * s));
+  }
+  return p;
+}
+
+ImageBounds ImageBounds::of_image(int width, int height) {
+  return {-0.5, width - 0.5, -0.5, height - 0.5};
+}
+
+ImageBounds undistorted_image_bounds(const core::PinholeCamera& raw) {
+  const ImageBounds image = ImageBounds::of_image(raw.width(), raw.height());
+  if (raw.distortion().is_zero()) return image;
+  std::vector<Eigen::Vector2d> border;
+  for (double u = image.min_u; u < image.max_u + kBorderSampleStepPx; u += kBorderSampleStepPx) {
+    const double uc = std::min(u, image.max_u);
+    border.emplace_back(uc, image.min_v);
+    border.emplace_back(uc, image.max_v);
+  }
+  for (double v = image.min_v; v < image.max_v + kBorderSampleStepPx; v += kBorderSampleStepPx) {
+    const double vc = std::min(v, image.max_v);
+    border.emplace_back(image.min_u, vc);
+    border.emplace_back(image.max_u, vc);
+  }
+  const ImageBounds box = bounding_box(raw.undistort_points(border));
+  return box.empty() ? image : box;
+}
+
+FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, double max_u, double min_v,
+                         double max_v, int cols, int rows) {
+  FLEETSLAM_CHECK(cols > 0 && rows > 0, "FeatureGrid needs at least one cell");
+  FLEETSLAM_CHECK(std::isfinite(min_u) && std::isfinite(max_u) && std::isfinite(min_v) && std::isfinite(max_v),
+                  "FeatureGrid bounds must be finite");
+  cols_ = cols;
+  rows_ = rows;
+  min_u_ = min_u;
+  min_v_ = min_v;
+  cell_w_ = (max_u > min_u ? max_u - min_u : 1.0) / cols;
+  cell_h_ = (max_v > min_v ? max_v - min_v : 1.0) / rows;
+  const double end_u = min_u_ + cell_w_ * cols;
+  const double end_v = min_v_ + cell_h_ * rows;
+  cells_.assign(static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows), {});
+  for (std::size_t i = 0; i < uv.size(); ++i) {
+    const double u = uv[i].x();
+    const double v = uv[i].y();
+    // Written so that NaN fails every comparison and is skipped.
+    if (!(u >= min_u_ && u < end_u && v >= min_v_ && v < end_v)) continue;
+    // Rounding can put a coordinate just below the end into cell `cols`: clamp.
+    const int cx = std::min(static_cast<int>((u - min_u_) / cell_w_), cols_ - 1);
+    const int cy = std::min(static_cast<int>((v - min_v_) / cell_h_), rows_ - 1);
+    cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(cols_) + static_cast<std::size_t>(cx)]
+        .push_back(static_cast<int>(i));
+  }
+}
+
+std::vector<int> FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
+                                               double u, double v, double radius_px, int min_level,
+                                               int max_level) const {
+  std::vector<int> found;
+  if (cells_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return found;
+  const bool check_level = min_level >= 0 || max_level >= 0;
+  FLEETSLAM_CHECK(!check_level || level.size() == uv.size(), "level bounds need one level per feature");
+  const CellRange cx = overlapping_cells(u - radius_px, u + radius_px, min_u_, cell_w_, cols_);
+  const CellRange cy = overlapping_cells(v - radius_px, v + radius_px, min_v_, cell_h_, rows_);
+  const double r2 = radius_px * radius_px;
+  for (int y = cy.first; y <= cy.last; ++y) {
+    for (int x = cx.first; x <= cx.last; ++x) {
+      for (const int i : cells_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_) +
+                                static_cast<std::size_t>(x)]) {
+        const auto k = static_cast<std::size_t>(i);
+        FLEETSLAM_CHECK(k < uv.size(), "FeatureGrid queried with fewer features than it was built from");
+        if (check_level && !level_in_bounds(level[k], min_level, max_level)) continue;
+        if ((uv[k] - Eigen::Vector2d(u, v)).squaredNorm() <= r2) found.push_back(i);
+      }
+    }
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+std::optional<Eigen::Vector3d> Frame::unproject(std::size_t i) const {
+  FLEETSLAM_CHECK(i < uv.size() && i < depth_m.size(), "Frame::unproject: feature index out of range");
+  const double z = depth_m[i];
+  if (!(z > 0.0) || !std::isfinite(z)) return std::nullopt;
+  return Eigen::Vector3d((uv[i].x() - camera.cx()) / camera.fx() * z, (uv[i].y() - camera.cy()) / camera.fy() * z, z);
+}
+
+void Frame::finalize() {
+  const std::size_t n = uv.size();
+  if (depth_m.empty()) depth_m.assign(n, -1.0);
+  if (u_right.empty()) u_right.assign(n, -1.0);
+  FLEETSLAM_CHECK(keypoints.size() == n && level.size() == n && depth_m.size() == n && u_right.size() == n,
+                  "Frame::finalize: per-feature vectors differ in size");
+  FLEETSLAM_CHECK(static_cast<std::size_t>(descriptors.rows) == n || (n == 0 && descriptors.empty()),
+                  "Frame::finalize: descriptor rows differ from the number of features");
+  map_points.assign(n, kNoMapPoint);
+  outlier.assign(n, false);
+  ImageBounds area = bounds;
+  if (area.empty() && camera.width() > 0) area = ImageBounds::of_image(camera.width(), camera.height());
+  if (area.empty()) area = bounding_box(uv);
+  grid = FeatureGrid(uv, area);
+}
+
+}  // namespace fleetslam::slam

@@ -1,0 +1,172 @@
+// Frame basics: pyramid values, the feature grid against a brute-force oracle on random points,
+// unprojection, finalize() and the undistorted image bounds.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "fleetslam/core/camera.hpp"
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/slam/frame.hpp"
+
+namespace fleetslam::slam {
+namespace {
+
+TEST(ScalePyramid, ValuesFollowTheScaleFactor) {
+  const ScalePyramid p = ScalePyramid::make(8, 1.2);
+  EXPECT_EQ(p.levels, 8);
+  EXPECT_DOUBLE_EQ(p.scale_factor, 1.2);
+  ASSERT_EQ(p.scale.size(), 8u);
+  ASSERT_EQ(p.inv_sigma2.size(), 8u);
+  EXPECT_DOUBLE_EQ(p.scale[0], 1.0);
+  EXPECT_NEAR(p.scale[3], 1.728, 1e-12);
+  EXPECT_NEAR(p.scale[7], std::pow(1.2, 7), 1e-12);
+  for (std::size_t l = 0; l < 8; ++l) {
+    EXPECT_NEAR(p.inv_scale[l] * p.scale[l], 1.0, 1e-15);
+    EXPECT_NEAR(p.sigma2[l], p.scale[l] * p.scale[l], 1e-12);
+    EXPECT_NEAR(p.inv_sigma2[l] * p.sigma2[l], 1.0, 1e-15);
+  }
+  EXPECT_EQ(ScalePyramid::make(1, 2.0).scale.size(), 1u);
+  EXPECT_THROW(ScalePyramid::make(0, 1.2), std::invalid_argument);
+  EXPECT_THROW(ScalePyramid::make(4, 0.9), std::invalid_argument);
+  EXPECT_THROW(ScalePyramid::make(4, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+}
+
+// Brute force: every feature inside the grid's area, at distance <= r, within the level bounds.
+std::vector<int> oracle(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, const ImageBounds& b,
+                        double u, double v, double r, int min_level, int max_level) {
+  std::vector<int> found;
+  for (std::size_t i = 0; i < uv.size(); ++i) {
+    const Eigen::Vector2d& p = uv[i];
+    if (!(p.x() >= b.min_u && p.x() < b.max_u && p.y() >= b.min_v && p.y() < b.max_v)) continue;
+    if (min_level >= 0 && level[i] < min_level) continue;
+    if (max_level >= 0 && level[i] > max_level) continue;
+    if ((p - Eigen::Vector2d(u, v)).squaredNorm() <= r * r) found.push_back(static_cast<int>(i));
+  }
+  return found;
+}
+
+TEST(FeatureGrid, RadiusQueriesMatchBruteForce) {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u_dist(-30.0, 670.0), v_dist(-30.0, 510.0), r_dist(0.0, 60.0);
+  std::uniform_int_distribution<int> level_dist(0, 7), bound_dist(-1, 7);
+  const ImageBounds bounds{-12.3, 651.7, -8.1, 488.9};
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<int> level;
+  for (int i = 0; i < 3000; ++i) {
+    uv.emplace_back(u_dist(rng), v_dist(rng));
+    level.push_back(level_dist(rng));
+  }
+  // Points on cell edges, the exclusive upper bounds and non-finite ones.
+  uv.emplace_back(bounds.max_u, 100.0);
+  uv.emplace_back(bounds.min_u, bounds.min_v);
+  uv.emplace_back(std::nan(""), 100.0);
+  uv.emplace_back(100.0, std::numeric_limits<double>::infinity());
+  for (int i = 0; i < 4; ++i) level.push_back(0);
+  const FeatureGrid grid(uv, bounds);
+  for (int q = 0; q < 2000; ++q) {
+    const double u = u_dist(rng), v = v_dist(rng), r = q % 50 == 0 ? 0.0 : r_dist(rng);
+    const int min_level = q % 3 == 0 ? -1 : bound_dist(rng);
+    const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
+    ASSERT_EQ(grid.features_in_area(uv, level, u, v, r, min_level, max_level),
+              oracle(uv, level, bounds, u, v, r, min_level, max_level))
+        << "query " << q << " at (" << u << ", " << v << ") r " << r;
+  }
+  // Radius exactly to a feature counts it; a huge radius returns every indexed feature.
+  const std::vector<Eigen::Vector2d> one{{10.0, 10.0}};
+  const FeatureGrid small(one, bounds);
+  EXPECT_EQ(small.features_in_area(one, {}, 13.0, 14.0, 5.0), std::vector<int>{0});
+  EXPECT_TRUE(small.features_in_area(one, {}, 13.0, 14.0, 4.999).empty());
+  EXPECT_EQ(grid.features_in_area(uv, {}, 320.0, 240.0, 1e6).size(), oracle(uv, level, bounds, 0, 0, 1e9, -1, -1).size());
+  EXPECT_TRUE(grid.features_in_area(uv, level, std::nan(""), 10.0, 5.0).empty());
+  EXPECT_TRUE(grid.features_in_area(uv, level, 10.0, 10.0, -1.0).empty());
+  EXPECT_TRUE(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0).empty());
+}
+
+Frame frame_with(const std::vector<Eigen::Vector2d>& uv, const std::vector<double>& depth) {
+  Frame frame;
+  frame.camera = core::PinholeCamera(640, 480, 500.0, 490.0, 320.0, 240.0);
+  frame.pyramid = ScalePyramid::make(8, 1.2);
+  frame.uv = uv;
+  for (const Eigen::Vector2d& p : uv) {
+    frame.keypoints.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), 31.0f);
+    frame.level.push_back(0);
+  }
+  frame.descriptors = cv::Mat::zeros(static_cast<int>(uv.size()), 32, CV_8UC1);
+  frame.depth_m = depth;
+  return frame;
+}
+
+TEST(Frame, UnprojectGivesTheCameraPointOfTheDepth) {
+  Frame frame = frame_with({{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}}, {2.0, -1.0, 0.5});
+  frame.finalize();
+  const auto p = frame.unproject(0);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_DOUBLE_EQ(p->z(), 2.0);
+  const auto uv = frame.camera.project(*p);
+  ASSERT_TRUE(uv.has_value());
+  EXPECT_NEAR(uv->x(), 100.0, 1e-9);
+  EXPECT_NEAR(uv->y(), 50.0, 1e-9);
+  EXPECT_FALSE(frame.unproject(1).has_value());
+  EXPECT_TRUE(frame.has_depth(2));
+  EXPECT_NEAR(frame.unproject(2)->x(), (600.0 - 320.0) / 500.0 * 0.5, 1e-12);
+  EXPECT_THROW(frame.unproject(3), InvariantError);
+}
+
+TEST(Frame, FinalizeFillsPerFeatureStateAndTheGrid) {
+  Frame frame = frame_with({{10.0, 10.0}, {639.0, 479.0}, {320.0, 240.0}}, {});
+  frame.map_points = {7};
+  frame.finalize();
+  EXPECT_EQ(frame.depth_m, std::vector<double>(3, -1.0));
+  EXPECT_EQ(frame.u_right, std::vector<double>(3, -1.0));
+  EXPECT_EQ(frame.map_points, std::vector<MapPointId>(3, kNoMapPoint));
+  EXPECT_EQ(frame.outlier, std::vector<bool>(3, false));
+  EXPECT_FALSE(frame.grid.empty());
+  EXPECT_EQ(frame.grid.features_in_area(frame.uv, frame.level, 639.0, 479.0, 1.0), std::vector<int>{1});
+  EXPECT_EQ(frame.grid.features_in_area(frame.uv, frame.level, 320.0, 240.0, 400.0).size(), 3u);
+
+  Frame broken = frame_with({{10.0, 10.0}}, {});
+  broken.level.clear();
+  EXPECT_THROW(broken.finalize(), InvariantError);
+  Frame empty;
+  empty.finalize();
+  EXPECT_EQ(empty.size(), 0u);
+  EXPECT_TRUE(empty.grid.features_in_area(empty.uv, empty.level, 0.0, 0.0, 10.0).empty());
+}
+
+TEST(Frame, UndistortedBoundsHoldEveryUndistortedPixel) {
+  const core::PinholeCamera barrel(752, 480, 458.654, 457.296, 367.215, 248.375,
+                                   core::RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
+  const core::PinholeCamera pincushion(640, 480, 517.3, 516.5, 318.6, 255.3, core::RadTan{0.2624, -0.9531, -0.0054, 0.0026, 1.1633});
+  for (const core::PinholeCamera& raw : {barrel, pincushion}) {
+    const ImageBounds b = undistorted_image_bounds(raw);
+    std::vector<Eigen::Vector2d> pixels;
+    for (int v = 0; v < raw.height(); v += 7) {
+      for (int u = 0; u < raw.width(); u += 7) pixels.emplace_back(u, v);
+    }
+    for (int v = 0; v < raw.height(); ++v) pixels.emplace_back(raw.width() - 1, v);
+    double min_u = 1e9, max_u = -1e9;
+    for (const Eigen::Vector2d& p : raw.undistort_points(pixels)) {
+      ASSERT_TRUE(p.allFinite());
+      EXPECT_GE(p.x(), b.min_u);
+      EXPECT_LT(p.x(), b.max_u);
+      EXPECT_GE(p.y(), b.min_v);
+      EXPECT_LT(p.y(), b.max_v);
+      min_u = std::min(min_u, p.x());
+      max_u = std::max(max_u, p.x());
+    }
+    // Tight: the box is the border's extent, not a generous margin.
+    EXPECT_LT(min_u - b.min_u, 3.0);
+    EXPECT_LT(b.max_u - max_u, 3.0);
+  }
+  const ImageBounds plain = undistorted_image_bounds(core::PinholeCamera(640, 480, 500.0, 500.0, 320.0, 240.0));
+  EXPECT_DOUBLE_EQ(plain.min_u, -0.5);
+  EXPECT_DOUBLE_EQ(plain.max_u, 639.5);
+  EXPECT_DOUBLE_EQ(plain.max_v, 479.5);
+}
+
+}  // namespace
+}  // namespace fleetslam::slam
