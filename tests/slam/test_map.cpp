@@ -1,0 +1,317 @@
+// The map's bookkeeping: two-way links between points and features, covisibility weights and their
+// order, the spanning tree through keyframe culling, point replacement, point statistics, and local
+// mapping's culling of recent points and redundant keyframes.
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/slam/local_mapping.hpp"
+#include "fleetslam/slam/map.hpp"
+
+namespace fleetslam::slam {
+namespace {
+
+// A frame of n features on a grid of the image, each with depth 2 m, level 0 and random descriptors.
+Frame make_frame(std::size_t n, std::uint32_t seed, core::TimeNs t_ns = 0) {
+  Frame f;
+  f.t_ns = t_ns;
+  f.camera = core::PinholeCamera(640, 480, 500.0, 500.0, 319.5, 239.5);
+  f.pyramid = ScalePyramid::make(8, 1.2);
+  f.bf = 40.0;
+  f.close_depth_m = 3.0;
+  std::mt19937 rng(seed);
+  f.descriptors = cv::Mat(static_cast<int>(n), 32, CV_8UC1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double u = 20.0 + 600.0 * static_cast<double>(i % 20) / 20.0;
+    const double v = 20.0 + 440.0 * static_cast<double>(i / 20) / (static_cast<double>(n / 20) + 1.0);
+    f.keypoints.emplace_back(static_cast<float>(u), static_cast<float>(v), 31.0f, 0.0f, 0.0f, 0);
+    f.uv.emplace_back(u, v);
+    f.level.push_back(0);
+    f.depth_m.push_back(2.0);
+    f.u_right.push_back(u - f.bf / 2.0);
+    for (int b = 0; b < 32; ++b) f.descriptors.at<std::uint8_t>(static_cast<int>(i), b) = static_cast<std::uint8_t>(rng());
+  }
+  f.map_points.assign(n, kNoMapPoint);
+  f.outlier.assign(n, false);
+  return f;
+}
+
+Eigen::Isometry3d at_x(double x) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = x;
+  return T;
+}
+
+// Every link is two-way: feature -> point implies point -> (keyframe, feature) and back.
+void expect_consistent(const Map& map) {
+  for (const auto& [kf_id, kf] : map.keyframes()) {
+    for (std::size_t i = 0; i < kf.frame.size(); ++i) {
+      const MapPointId id = kf.frame.map_points[i];
+      if (id == kNoMapPoint) continue;
+      const MapPoint* p = map.point(id);
+      ASSERT_NE(p, nullptr) << "keyframe " << kf_id << " feature " << i;
+      ASSERT_EQ(p->observations.count(kf_id), 1u);
+      EXPECT_EQ(p->observations.at(kf_id), static_cast<int>(i));
+    }
+  }
+  for (MapPointId id : map.point_ids()) {
+    const MapPoint& p = *map.point(id);
+    EXPECT_FALSE(p.observations.empty());
+    for (const auto& [kf_id, feature] : p.observations) {
+      const Keyframe* kf = map.keyframe(kf_id);
+      ASSERT_NE(kf, nullptr);
+      EXPECT_EQ(kf->frame.map_points[static_cast<std::size_t>(feature)], id);
+    }
+  }
+}
+
+// n points seen by feature i of every keyframe in `keyframes` (the first creates them).
+std::vector<MapPointId> shared_points(Map& map, const std::vector<KeyframeId>& keyframes, int first_feature, int n) {
+  std::vector<MapPointId> ids;
+  for (int i = first_feature; i < first_feature + n; ++i) {
+    const MapPointId id = map.add_map_point(Eigen::Vector3d(0.01 * i, 0.0, 2.0), keyframes.front(), i);
+    for (std::size_t k = 1; k < keyframes.size(); ++k) map.add_observation(id, keyframes[k], i);
+    ids.push_back(id);
+  }
+  return ids;
+}
+
+TEST(Map, CovisibilityWeightsOrderAndParent) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_frame(100, 1), at_x(0.0), 0);
+  const KeyframeId b = map.add_keyframe(make_frame(100, 2), at_x(0.1), 0);
+  const KeyframeId c = map.add_keyframe(make_frame(100, 3), at_x(0.2), 0);
+  const KeyframeId d = map.add_keyframe(make_frame(100, 4), at_x(0.3), 0);
+  shared_points(map, {a, d}, 0, 40);     // a-d: 40
+  shared_points(map, {b, d}, 40, 20);    // b-d: 20
+  shared_points(map, {c, d}, 60, 5);     // c-d: 5 (below the threshold of 15)
+  shared_points(map, {a, b, d}, 65, 10); // a-b-d: +10 to a-d, b-d and a-b
+  for (KeyframeId id : {a, b, c}) map.update_connections(id);
+  map.update_connections(d);
+  expect_consistent(map);
+
+  const Keyframe& kd = *map.keyframe(d);
+  ASSERT_EQ(kd.neighbours.size(), 2u);  // c (5) is below 15 and not the strongest
+  EXPECT_EQ(kd.neighbours[0], std::make_pair(a, 50));
+  EXPECT_EQ(kd.neighbours[1], std::make_pair(b, 30));
+  EXPECT_EQ(map.keyframe(a)->connections.at(d), 50);  // mirrored
+  EXPECT_EQ(map.keyframe(b)->connections.at(d), 30);
+  EXPECT_EQ(kd.best_covisible(1), std::vector<KeyframeId>{a});
+  EXPECT_EQ(kd.covisible_with_weight(40), std::vector<KeyframeId>{a});
+  EXPECT_EQ(kd.parent, a);  // the strongest neighbour at the first connection
+  EXPECT_TRUE(map.keyframe(a)->children.count(d));
+  EXPECT_TRUE(map.keyframe(a)->root);
+  EXPECT_EQ(map.keyframe(a)->parent, -1);
+
+  // A keyframe whose only links are weak keeps the strongest one.
+  const Keyframe& kc = *map.keyframe(c);
+  ASSERT_EQ(kc.neighbours.size(), 0u);  // c's connections were computed before d shared points
+  map.update_connections(c);
+  ASSERT_EQ(map.keyframe(c)->neighbours.size(), 1u);
+  EXPECT_EQ(map.keyframe(c)->neighbours[0], std::make_pair(d, 5));
+}
+
+TEST(Map, TiesAreOrderedByIdAndWeightsFollowErasure) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_frame(100, 1), at_x(0.0), 0);
+  const KeyframeId b = map.add_keyframe(make_frame(100, 2), at_x(0.1), 0);
+  const KeyframeId c = map.add_keyframe(make_frame(100, 3), at_x(0.2), 0);
+  shared_points(map, {b, a}, 0, 20);
+  const std::vector<MapPointId> ac = shared_points(map, {c, a}, 20, 20);
+  map.update_connections(a);
+  ASSERT_EQ(map.keyframe(a)->neighbours.size(), 2u);
+  EXPECT_EQ(map.keyframe(a)->neighbours[0].first, b);  // equal weights: the older keyframe first
+  for (int i = 0; i < 10; ++i) map.erase_observation(ac[static_cast<std::size_t>(i)], c);
+  map.update_connections(a);
+  EXPECT_EQ(map.keyframe(a)->connections.count(c), 0u);  // 10 < 15 and not the strongest
+  EXPECT_EQ(map.keyframe(c)->connections.count(a), 0u);  // the mirror went too
+  expect_consistent(map);
+}
+
+TEST(Map, ErasingObservationsAndPointsKeepsLinksConsistent) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_frame(50, 1), at_x(0.0), 0);
+  const KeyframeId b = map.add_keyframe(make_frame(50, 2), at_x(0.1), 0);
+  const std::vector<MapPointId> ids = shared_points(map, {a, b}, 0, 10);
+  map.erase_observation(ids[0], a);
+  EXPECT_EQ(map.keyframe(a)->frame.map_points[0], kNoMapPoint);
+  ASSERT_NE(map.point(ids[0]), nullptr);
+  EXPECT_EQ(map.point(ids[0])->reference_keyframe, b);  // the reference moves to a remaining observer
+  map.erase_observation(ids[0], b);
+  EXPECT_EQ(map.point(ids[0]), nullptr);  // no observation left: gone
+  map.erase_map_point(ids[1]);
+  EXPECT_EQ(map.keyframe(a)->frame.map_points[1], kNoMapPoint);
+  EXPECT_EQ(map.keyframe(b)->frame.map_points[1], kNoMapPoint);
+  EXPECT_EQ(map.point_count(), 8u);
+  expect_consistent(map);
+}
+
+TEST(Map, ReplacementMergesObservationsAndResolves) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_frame(50, 1), at_x(0.0), 0);
+  const KeyframeId b = map.add_keyframe(make_frame(50, 2), at_x(0.1), 0);
+  const KeyframeId c = map.add_keyframe(make_frame(50, 3), at_x(0.2), 0);
+  const MapPointId p = map.add_map_point(Eigen::Vector3d(0, 0, 2), a, 0);
+  map.add_observation(p, b, 0);
+  const MapPointId q = map.add_map_point(Eigen::Vector3d(0, 0, 2), b, 1);  // b sees both (duplicate)
+  map.add_observation(q, c, 1);
+  map.point(p)->visible = 5, map.point(p)->found = 4;
+  map.point(q)->visible = 3, map.point(q)->found = 1;
+  map.replace_map_point(q, p);
+  EXPECT_EQ(map.point(q), nullptr);
+  EXPECT_EQ(map.resolve(q), p);
+  EXPECT_EQ(map.resolve(p), p);
+  const MapPoint& merged = *map.point(p);
+  EXPECT_EQ(merged.observations.size(), 3u);             // a, b (kept its own feature), c
+  EXPECT_EQ(merged.observations.at(b), 0);
+  EXPECT_EQ(map.keyframe(b)->frame.map_points[1], kNoMapPoint);  // b's duplicate feature is freed
+  EXPECT_EQ(map.keyframe(c)->frame.map_points[1], p);
+  EXPECT_EQ(merged.visible, 8);
+  EXPECT_EQ(merged.found, 5);
+  expect_consistent(map);
+  map.erase_map_point(p);
+  EXPECT_EQ(map.resolve(q), kNoMapPoint);
+}
+
+TEST(Map, PointStatisticsDescriptorNormalAndDistanceRange) {
+  Map map;
+  // Descriptors with 0, 4, 8 and 256 bits set: the one with the least median distance to the others
+  // is the 4-bit one (medians 8, 4, 8, 252).
+  std::vector<Frame> frames{make_frame(10, 1), make_frame(10, 2), make_frame(10, 3), make_frame(10, 4)};
+  frames[0].descriptors.row(0).setTo(0);
+  frames[1].descriptors.row(0).setTo(0);
+  frames[1].descriptors.at<std::uint8_t>(0, 0) = 0x0F;
+  frames[2].descriptors.row(0).setTo(0);
+  frames[2].descriptors.at<std::uint8_t>(0, 0) = 0xFF;
+  frames[3].descriptors.row(0).setTo(255);
+  frames[0].level[0] = 2;
+  const double xs[4] = {-1.0, 1.0, -0.5, 0.5};
+  std::vector<KeyframeId> ids;
+  for (std::size_t k = 0; k < frames.size(); ++k) ids.push_back(map.add_keyframe(frames[k], at_x(xs[k]), 0));
+  const MapPointId p = map.add_map_point(Eigen::Vector3d(0, 0, 2), ids[0], 0);
+  for (std::size_t k = 1; k < ids.size(); ++k) map.add_observation(p, ids[k], 0);
+  map.update_point_statistics(p);
+  const MapPoint& mp = *map.point(p);
+  EXPECT_EQ(mp.descriptor, descriptor_row(map.keyframe(ids[1])->frame.descriptors, 0));
+  EXPECT_NEAR(mp.normal.x(), 0.0, 1e-12);  // symmetric views average to +z
+  EXPECT_NEAR(mp.normal.z(), 1.0, 1e-12);
+  const double distance = std::sqrt(5.0);  // from the reference keyframe (the first) at x = -1
+  const ScalePyramid pyramid = ScalePyramid::make(8, 1.2);
+  EXPECT_NEAR(mp.max_distance_m, distance * pyramid.scale[2], 1e-12);
+  EXPECT_NEAR(mp.min_distance_m, mp.max_distance_m / pyramid.scale[7], 1e-12);
+  EXPECT_EQ(mp.predict_level(mp.max_distance_m, pyramid), 0);
+  EXPECT_EQ(mp.predict_level(mp.min_distance_m * 1.0001, pyramid), 7);
+}
+
+TEST(Map, CullingAKeyframeReparentsChildrenAndKeepsRelativePoses) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_frame(100, 1), at_x(0.0), 0);
+  const KeyframeId b = map.add_keyframe(make_frame(100, 2), at_x(0.1), 0);
+  const KeyframeId c = map.add_keyframe(make_frame(100, 3), at_x(0.2), 0);
+  shared_points(map, {a, b, c}, 0, 30);
+  shared_points(map, {b, c}, 30, 30);
+  map.update_connections(b);  // parent a: c shares more (60) but is younger
+  map.update_connections(c);  // parent b (60 shared)
+  ASSERT_EQ(map.keyframe(b)->parent, a);
+  ASSERT_EQ(map.keyframe(c)->parent, b);
+  EXPECT_FALSE(map.erase_keyframe(a));  // the root stays
+  ASSERT_TRUE(map.erase_keyframe(b));
+  EXPECT_EQ(map.keyframe(b), nullptr);
+  EXPECT_TRUE(map.is_culled(b));
+  EXPECT_EQ(map.keyframe(c)->parent, a);
+  EXPECT_TRUE(map.keyframe(a)->children.count(c));
+  EXPECT_EQ(map.keyframe(a)->connections.count(b), 0u);
+  expect_consistent(map);
+  // A pose relative to the culled keyframe follows its parent when the parent moves.
+  ASSERT_TRUE(map.keyframe_pose(b).has_value());
+  EXPECT_TRUE(map.keyframe_pose(b)->isApprox(at_x(0.1)));
+  map.keyframe(a)->T_world_cam = at_x(1.0);
+  EXPECT_TRUE(map.keyframe_pose(b)->isApprox(at_x(1.1)));
+  const auto live = map.live_keyframe(b);
+  ASSERT_TRUE(live.has_value());
+  EXPECT_EQ(live->first, a);
+}
+
+TEST(Map, IdsComeFromEachMapsOwnCounters) {
+  Map one, two;
+  EXPECT_EQ(one.add_keyframe(make_frame(5, 1), at_x(0), 0), 0);
+  EXPECT_EQ(one.add_keyframe(make_frame(5, 1), at_x(0), 0), 1);
+  EXPECT_EQ(two.add_keyframe(make_frame(5, 1), at_x(0), 0), 0);
+  EXPECT_EQ(one.add_map_point(Eigen::Vector3d(0, 0, 1), 0, 0), 0);
+  EXPECT_EQ(two.add_map_point(Eigen::Vector3d(0, 0, 1), 0, 0), 0);
+  // A second component has its own root.
+  const KeyframeId other = one.add_keyframe(make_frame(5, 1), at_x(0), 1);
+  EXPECT_TRUE(one.keyframe(other)->root);
+  EXPECT_FALSE(one.keyframe(1)->root);
+}
+
+// A frame that tracked every point of `previous` (same features) with a pose.
+Frame tracked_frame(const Map& map, KeyframeId previous, double x, core::TimeNs t_ns) {
+  Frame f = map.keyframe(previous)->frame;
+  f.t_ns = t_ns;
+  f.T_world_cam = at_x(x);
+  return f;
+}
+
+TEST(LocalMapping, RecentPointsAreCulledByFoundRatioAndObservations) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = at_x(0.0);
+  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
+  EXPECT_EQ(map.point_count(), 60u);  // the first keyframe takes every depth feature
+
+  // The second keyframe sees the first 40 points; its other 20 features become new (recent) points.
+  Frame second = make_frame(60, 2);
+  second.T_world_cam = at_x(0.05);
+  for (int i = 0; i < 40; ++i) second.map_points[static_cast<std::size_t>(i)] = map.keyframe(k0)->frame.map_points[static_cast<std::size_t>(i)];
+  MappingReport report;
+  const KeyframeId k1 = mapper.insert_keyframe(second, 0, false, map, &report);
+  EXPECT_EQ(report.new_depth_points, 20);
+  EXPECT_EQ(map.point(map.keyframe(k0)->frame.map_points[0])->observations.size(), 2u);
+  const MapPointId rarely_found = map.keyframe(k1)->frame.map_points[40];
+  map.point(rarely_found)->visible = 10;
+  map.point(rarely_found)->found = 2;  // 0.2 < 0.25
+  EXPECT_EQ(mapper.cull_recent_points(k1, map), 1);
+  EXPECT_EQ(map.point(rarely_found), nullptr);
+
+  // Two keyframes later, recent points seen by one keyframe only (weight 2 <= 3) go; those seen
+  // again by the newest keyframe (weight 4) stay.
+  Frame third = tracked_frame(map, k1, 0.1, 2);
+  for (std::size_t i = 50; i < 60; ++i) third.map_points[i] = kNoMapPoint;  // 50..59 not seen again
+  const KeyframeId k2 = mapper.insert_keyframe(third, 0, false, map, nullptr);
+  EXPECT_EQ(mapper.cull_recent_points(k2, map), 0);  // one keyframe later: still on probation
+  Frame fourth = tracked_frame(map, k2, 0.15, 3);
+  const KeyframeId k3 = mapper.insert_keyframe(fourth, 0, false, map, nullptr);
+  const std::size_t before = map.point_count();
+  EXPECT_EQ(mapper.cull_recent_points(k3, map), 10);  // features 50..59 of k1
+  EXPECT_EQ(map.point_count(), before - 10);
+  EXPECT_NE(map.point(map.keyframe(k1)->frame.map_points[45]), nullptr);
+  expect_consistent(map);
+}
+
+TEST(LocalMapping, RedundantKeyframesAreCulled) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = at_x(0.0);
+  KeyframeId last = mapper.insert_keyframe(first, 0, true, map, nullptr);
+  std::vector<KeyframeId> ids{last};
+  for (int k = 1; k <= 4; ++k) {  // four more keyframes seeing every point: all redundant but the root
+    last = mapper.insert_keyframe(tracked_frame(map, last, 0.01 * k, k), 0, false, map, nullptr);
+    ids.push_back(last);
+  }
+  // Neighbours are visited strongest first (all equal: oldest first); the root is never culled. Each
+  // culled keyframe removes an observer, and culling stops once a point has fewer than 3 others.
+  const std::vector<KeyframeId> culled = mapper.cull_keyframes(last, map);
+  EXPECT_EQ(culled, (std::vector<KeyframeId>{ids[1], ids[2]}));
+  EXPECT_NE(map.keyframe(ids.front()), nullptr);
+  EXPECT_EQ(map.keyframe_count(), 3u);
+  expect_consistent(map);
+}
+
+}  // namespace
+}  // namespace fleetslam::slam
