@@ -163,13 +163,27 @@ void PurePursuit::set_path(std::vector<Eigen::Vector2d> path_xy) {
     }
   }
   path_ = std::move(path_xy);
+  rebuild_arc_lengths();
+  progress_ = 0;
+  anchor_pending_ = !path_.empty();
+  done_ = path_.empty();
+  if (done_) v_last_ = 0.0;
+}
+
+void PurePursuit::rebuild_arc_lengths() {
   cumulative_m_.assign(path_.size(), 0.0);
   for (std::size_t i = 1; i < path_.size(); ++i) {
     cumulative_m_[i] = cumulative_m_[i - 1] + (path_[i] - path_[i - 1]).norm();
   }
-  progress_ = 0;
-  done_ = path_.empty();
-  if (done_) v_last_ = 0.0;
+}
+
+// A new path starts where the robot is: without this first leg, a robot far from the path's first
+// point would measure its progress against the whole path and could skip ahead along a loop.
+void PurePursuit::anchor_path_at(const Eigen::Vector2d& p_xy) {
+  anchor_pending_ = false;
+  if ((path_.front() - p_xy).norm() <= config_.goal_tolerance_m) return;
+  path_.insert(path_.begin(), p_xy);
+  rebuild_arc_lengths();
 }
 
 PurePursuit::Projection PurePursuit::project_on_segment(std::size_t segment, const Eigen::Vector2d& p_xy) const {
@@ -188,12 +202,12 @@ PurePursuit::Projection PurePursuit::project_on_segment(std::size_t segment, con
 }
 
 // Moves the progress index to the nearest segment within a window of path ahead. The window (arc length
-// up to the current distance from the path plus two lookaheads) keeps a path that comes back near
-// itself, such as a closed loop, from being skipped; progress never goes back.
+// up to the current distance from the path, capped, plus two lookaheads) keeps a path that comes back
+// near itself, such as a closed loop, from being skipped; progress never goes back.
 PurePursuit::Projection PurePursuit::advance_progress(const Eigen::Vector2d& p_xy) {
   Projection best = project_on_segment(progress_, p_xy);
   const double here_m = arc_length_m(best);
-  const double window_m = best.distance_m + 2.0 * config_.lookahead_m;
+  const double window_m = std::min(best.distance_m, 2.0 * config_.lookahead_m) + 2.0 * config_.lookahead_m;
   for (std::size_t i = progress_ + 1; i + 1 < path_.size(); ++i) {
     if (cumulative_m_[i] - here_m > window_m) break;
     const Projection candidate = project_on_segment(i, p_xy);
@@ -237,6 +251,7 @@ PurePursuit::Command PurePursuit::update(const Eigen::Vector2d& p_xy, double yaw
     v_last_ = 0.0;
     return Command{};
   }
+  if (anchor_pending_) anchor_path_at(p_xy);
   const Projection here = advance_progress(p_xy);
   const bool on_last_segment = progress_ + 2 >= path_.size();
   const double to_goal_m = (path_.back() - p_xy).norm();

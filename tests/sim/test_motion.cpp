@@ -245,6 +245,22 @@ TEST(PurePursuit, FollowsAClosedSquareAllTheWayRound) {
   expect_limits(r, config, 0.02);
 }
 
+TEST(PurePursuit, ALoopStartingFarFromTheRobotIsNotSkipped) {
+  const PurePursuitConfig config;
+  PurePursuit controller(config);
+  // The loop's first point is 6 m away and its closing leg passes nearer the robot than that: the robot
+  // drives to the start and then all the way round, instead of measuring its progress against the whole
+  // loop and jumping to its end.
+  const std::vector<Eigen::Vector2d> loop = {{6.0, 0.0}, {8.0, 0.0}, {8.0, 2.0}, {6.0, 2.0}, {5.0, 0.5}};
+  controller.set_path(loop);
+  const DriveResult r = drive(controller, loop, {0.0, 0.0}, 0.0, 200.0);
+  report("far loop", r);
+  EXPECT_TRUE(r.done);
+  EXPECT_DOUBLE_EQ(r.path_covered, 1.0);
+  EXPECT_GT(r.time_s, (6.0 + 7.1) / config.max_speed_mps);
+  EXPECT_LE(r.final_goal_error_m, config.goal_tolerance_m);
+}
+
 TEST(PurePursuit, TurnsOnTheSpotTowardsAPathBehind) {
   PurePursuitConfig config;
   config.max_yaw_rate_radps = 0.8;

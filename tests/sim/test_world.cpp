@@ -94,6 +94,16 @@ TEST(World, DepthOfAFrontoParallelWallIsExact) {
   EXPECT_LT(worst, 1e-3);
 }
 
+TEST(World, NearbyWallsAreNotClippedInLargeScenes) {
+  // A large scene (MuJoCo's default near plane would be over 0.3 m) and a camera 12 cm from a wall.
+  const fs::path dir = write_scene("near", std::string(kWallScene) +
+                                               "    <geom type=\"box\" pos=\"30 30 1\" size=\"1 1 1\"/>\n");
+  World world(scenario_in(dir, {still_rig("cam", PoseConfig{2.03, 0.0, 1.25, 0, 0, 0})}), nullptr);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_NEAR(frames[0].depth_m.at<float>(240, 320), 0.12, 1e-3);
+}
+
 TEST(World, DepthOfTheFloorMatchesRayCasting) {
   const fs::path dir = write_scene("floor", "    <geom type=\"plane\" size=\"30 30 0.1\" rgba=\"0.5 0.5 0.5 1\"/>\n");
   // Looking 35 degrees down from 1.2 m: the lower image sees the floor, the top sees nothing.

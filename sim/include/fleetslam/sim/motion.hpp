@@ -105,6 +105,8 @@ class PurePursuit {
     double s = 0.0;           // position along it in [0, 1]
     double distance_m = 0.0;  // from the robot
   };
+  void rebuild_arc_lengths();
+  void anchor_path_at(const Eigen::Vector2d& p_xy);
   Projection project_on_segment(std::size_t segment, const Eigen::Vector2d& p_xy) const;
   Projection advance_progress(const Eigen::Vector2d& p_xy);
   double arc_length_m(const Projection& projection) const;
@@ -117,6 +119,7 @@ class PurePursuit {
   std::vector<Eigen::Vector2d> path_;
   std::vector<double> cumulative_m_;  // arc length from the first point to each point
   std::size_t progress_ = 0;  // index of the path segment the robot is on
+  bool anchor_pending_ = false;  // the next update prepends the robot's position to a new path
   double v_last_ = 0.0;
   bool done_ = true;
 };
