@@ -247,17 +247,17 @@ std::vector<int> disc_half_widths() {
 // Intensity-centroid orientation (Rosin; ORB): the angle of the vector from the corner to the
 // centroid of the disc around it, in degrees [0, 360). The corner lies >= r pixels from the border.
 float orientation_deg(const cv::Mat& level, int x, int y, const std::vector<int>& half) {
-  long m10 = 0, m01 = 0;
+  // |moments| <= 15 * 255 * 709 pixels: int is enough.
+  int m10 = 0, m01 = 0;
   for (int v = -kOrbOrientationRadiusPx; v <= kOrbOrientationRadiusPx; ++v) {
-    const std::uint8_t* row = level.ptr<std::uint8_t>(y + v);
+    const std::uint8_t* row = level.ptr<std::uint8_t>(y + v) + x;
     const int w = half[static_cast<std::size_t>(std::abs(v))];
-    long row_sum = 0;
+    int row_sum = 0;
     for (int u = -w; u <= w; ++u) {
-      const int value = row[x + u];
-      m10 += static_cast<long>(u) * value;
-      row_sum += value;
+      m10 += u * row[u];
+      row_sum += row[u];
     }
-    m01 += static_cast<long>(v) * row_sum;
+    m01 += v * row_sum;
   }
   double angle = std::atan2(static_cast<double>(m01), static_cast<double>(m10)) * kRadToDeg;
   if (angle < 0.0) angle += 360.0;

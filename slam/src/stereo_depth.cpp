@@ -57,27 +57,42 @@ bool window_fits(const cv::Mat& image, int x, int y, int half) {
   return x - half >= 0 && y - half >= 0 && x + half < image.cols && y + half < image.rows;
 }
 
-// The window of `image` centred on (x, y) as floats minus their mean.
-std::vector<float> zero_mean_window(const cv::Mat& image, int x, int y, int half) {
-  std::vector<float> w;
-  w.reserve(static_cast<std::size_t>((2 * half + 1) * (2 * half + 1)));
-  float sum = 0.0f;
-  for (int v = y - half; v <= y + half; ++v) {
-    const std::uint8_t* row = image.ptr<std::uint8_t>(v);
-    for (int u = x - half; u <= x + half; ++u) {
-      w.push_back(static_cast<float>(row[u]));
-      sum += w.back();
-    }
+// Zero-mean SAD between the (2 half + 1)^2 window of `left` at (xl, y) and the windows of `right` at
+// (xr0 + offset, y) for offset in [-reach, reach]. Subtracting each window's mean makes the cost blind
+// to a brightness offset between the cameras. Computed exactly in integers, scaled by the pixel count
+// n: n * sum |(L - mean_L) - (R - mean_R)| = sum |n (L - R) - (sum_L - sum_R)|, which also lets the
+// compiler vectorise it. The windows must lie inside both images.
+std::vector<float> zero_mean_sad(const cv::Mat& left, int xl, const cv::Mat& right, int xr0, int y, int half,
+                                 int reach) {
+  const int side = 2 * half + 1;
+  const int n = side * side;
+  int left_sum = 0;
+  for (int r = 0; r < side; ++r) {
+    const std::uint8_t* row = left.ptr<std::uint8_t>(y - half + r) + (xl - half);
+    for (int c = 0; c < side; ++c) left_sum += row[c];
   }
-  const float mean = sum / static_cast<float>(w.size());
-  for (float& value : w) value -= mean;
-  return w;
-}
-
-float sad(const std::vector<float>& a, const std::vector<float>& b) {
-  float total = 0.0f;
-  for (std::size_t i = 0; i < a.size(); ++i) total += std::abs(a[i] - b[i]);
-  return total;
+  // Column sums of the right strip give every window's sum with a sliding sum.
+  const int first_col = xr0 - reach - half;
+  const int strip = side + 2 * reach;
+  std::vector<int> column_sums(static_cast<std::size_t>(strip), 0);
+  for (int r = 0; r < side; ++r) {
+    const std::uint8_t* row = right.ptr<std::uint8_t>(y - half + r) + first_col;
+    for (int c = 0; c < strip; ++c) column_sums[static_cast<std::size_t>(c)] += row[c];
+  }
+  std::vector<float> costs;
+  for (int k = 0; k <= 2 * reach; ++k) {
+    int right_sum = 0;
+    for (int c = 0; c < side; ++c) right_sum += column_sums[static_cast<std::size_t>(k + c)];
+    const int offset = left_sum - right_sum;
+    int scaled_cost = 0;
+    for (int r = 0; r < side; ++r) {
+      const std::uint8_t* l = left.ptr<std::uint8_t>(y - half + r) + (xl - half);
+      const std::uint8_t* rr = right.ptr<std::uint8_t>(y - half + r) + first_col + k;
+      for (int c = 0; c < side; ++c) scaled_cost += std::abs(n * (int{l[c]} - int{rr[c]}) - offset);
+    }
+    costs.push_back(static_cast<float>(scaled_cost) / static_cast<float>(n));
+  }
+  return costs;
 }
 
 struct Refined {
@@ -100,11 +115,7 @@ Refined refine(const cv::KeyPoint& left, double u_right0, const cv::Mat& left_le
       !window_fits(right_level, xr0 + reach, yl, w)) {
     return {};
   }
-  const std::vector<float> patch = zero_mean_window(left_level, xl, yl, w);
-  std::vector<float> costs;
-  for (int offset = -reach; offset <= reach; ++offset) {
-    costs.push_back(sad(patch, zero_mean_window(right_level, xr0 + offset, yl, w)));
-  }
+  const std::vector<float> costs = zero_mean_sad(left_level, xl, right_level, xr0, yl, w, reach);
   const auto best = static_cast<std::size_t>(std::min_element(costs.begin(), costs.end()) - costs.begin());
   // A minimum on the edge of the search may lie beyond it: no trustworthy sub-pixel position.
   if (best == 0 || best + 1 == costs.size()) return {};
