@@ -176,9 +176,9 @@ cv::Mat FrameBuilder::to_gray(const cv::Mat& image) const {
   if (image.type() == CV_8UC1) return image;
   cv::Mat gray;
   if (image.type() == CV_8UC3) {
-    cv::cvtColor(image, gray, rig_.rgb_order ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);  // SensorFrame images are BGR
   } else {
-    cv::cvtColor(image, gray, rig_.rgb_order ? cv::COLOR_RGBA2GRAY : cv::COLOR_BGRA2GRAY);
+    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
   }
   return gray;
 }

@@ -253,7 +253,7 @@ TEST_F(OrbSlamSettingsTest, DefaultsForOptionalKeys) {
   const OrbSlamSettings s = read(text);
   EXPECT_TRUE(s.rig.cam0.distortion().is_zero());
   EXPECT_DOUBLE_EQ(s.rig.fps, SensorRig{}.fps);
-  EXPECT_TRUE(s.rig.rgb_order);
+  EXPECT_FALSE(s.rig.rgb_order);  // an absent Camera.RGB reads as 0, as ORB-SLAM's FileStorage read does
   EXPECT_EQ(s.orb.num_features, OrbExtractorSettings{}.num_features);
   EXPECT_DOUBLE_EQ(s.orb.scale_factor, OrbExtractorSettings{}.scale_factor);
 }

@@ -36,7 +36,9 @@ struct SensorRig {
   double depth_scale = 5000.0;  // RGB-D: raw depth units per metre
   double bf = 0.0;              // baseline times fx (stereo: real; RGB-D: virtual), pixel*metres
   double fps = 30.0;
-  bool rgb_order = true;        // colour images stored RGB (true) or BGR (false)
+  // ORB-SLAM's Camera.RGB flag, kept so settings files round-trip. It does not describe fleetslam's
+  // frames: SensorFrame images are always BGR (OpenCV's order), whatever a settings file says.
+  bool rgb_order = false;
 };
 
 }  // namespace fleetslam::core
