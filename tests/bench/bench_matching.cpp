@@ -13,13 +13,24 @@
 // matchers get a motion-model prediction that is off by about 1 px. A second, ambiguous scene
 // (ambiguous:1) has 40 % of points in one frame only and 50 % repeated texture: more chances for the
 // single-stage matcher to pair a feature with a look-alike neighbour whose own match is missing. OpenCV
-// runs on one thread, like the projection matchers. Usage: bench_matching [google-benchmark flags]
+// runs on one thread, like the projection matchers.
+//
+// Usage: bench_matching [--iterations=N] [google-benchmark flags]. With --benchmark_repetitions on a shared
+// machine the "_min" row (added to every benchmark) is the best estimate of the undisturbed cost.
+// --iterations=N runs every selected benchmark exactly N iterations (no calibration runs): repeatable
+// instruction counts under callgrind, counting only the matcher (scene generation and precision counters
+// excluded), e.g.
+//   valgrind --tool=callgrind --toggle-collect='fleetslam::slam::match_by_projection*'
+//            bench_matching --iterations=20 --benchmark_filter='BM_CrossValidation/features:1000/ambiguous:0/'
+// and total Ir / 20 is one match.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <map>
 #include <utility>
 #include <random>
@@ -277,16 +288,44 @@ void sizes(benchmark::internal::Benchmark* b) {
   }
 }
 
-BENCHMARK(BM_BruteForceOpenCV)->Apply(sizes)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FlannLsh)->Apply(sizes)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_ProjectionSingleStage)->Apply(sizes)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_CrossValidation)->Apply(sizes)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_BruteForceFleetslam)->Apply(sizes)->Unit(benchmark::kMillisecond);
+double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+// iterations > 0: exactly that many per benchmark (see the usage above); 0: Google Benchmark decides.
+void register_benchmarks(benchmark::IterationCount iterations) {
+  const std::pair<const char*, void (*)(benchmark::State&)> benchmarks[] = {
+      {"BM_BruteForceOpenCV", BM_BruteForceOpenCV},
+      {"BM_FlannLsh", BM_FlannLsh},
+      {"BM_ProjectionSingleStage", BM_ProjectionSingleStage},
+      {"BM_CrossValidation", BM_CrossValidation},
+      {"BM_BruteForceFleetslam", BM_BruteForceFleetslam},
+  };
+  for (const auto& [name, function] : benchmarks) {
+    auto* b = benchmark::RegisterBenchmark(name, function)->Apply(sizes)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", min_of);
+    if (iterations > 0) b->Iterations(iterations);
+  }
+}
+
+// Removes --iterations=N from argv (Google Benchmark rejects flags it does not know); 0 when absent.
+benchmark::IterationCount take_iterations_flag(int& argc, char** argv) {
+  constexpr const char* kFlag = "--iterations=";
+  benchmark::IterationCount iterations = 0;
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strncmp(argv[i], kFlag, std::strlen(kFlag)) == 0) {
+      iterations = std::max<benchmark::IterationCount>(1, std::atoll(argv[i] + std::strlen(kFlag)));
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  return iterations;
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);  // the projection matchers are single-threaded; compare per core
+  register_benchmarks(take_iterations_flag(argc, argv));
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
