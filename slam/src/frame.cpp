@@ -29,10 +29,6 @@ CellRange overlapping_cells(double lo, double hi, double origin, double cell_siz
   return {static_cast<int>(std::max(first, 0.0)), static_cast<int>(std::min(last, count - 1.0))};
 }
 
-bool level_in_bounds(int level, int min_level, int max_level) {
-  return (min_level < 0 || level >= min_level) && (max_level < 0 || level <= max_level);
-}
-
 ImageBounds bounding_box(const std::vector<Eigen::Vector2d>& uv) {
   ImageBounds box{std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest(),
                   std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest()};
@@ -98,6 +94,8 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
   FLEETSLAM_CHECK(cols > 0 && rows > 0, "FeatureGrid needs at least one cell");
   FLEETSLAM_CHECK(std::isfinite(min_u) && std::isfinite(max_u) && std::isfinite(min_v) && std::isfinite(max_v),
                   "FeatureGrid bounds must be finite");
+  FLEETSLAM_CHECK(uv.size() <= static_cast<std::size_t>(std::numeric_limits<int>::max()),
+                  "FeatureGrid: too many features for int indices");
   cols_ = cols;
   rows_ = rows;
   min_u_ = min_u;
@@ -106,7 +104,11 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
   cell_h_ = (max_v > min_v ? max_v - min_v : 1.0) / rows;
   const double end_u = min_u_ + cell_w_ * cols;
   const double end_v = min_v_ + cell_h_ * rows;
-  cells_.assign(static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows), {});
+  const std::size_t cells = static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows);
+  // Counting sort by cell: count per cell (shifted by one), prefix sums give each cell's start, then
+  // the indices in ascending order, so that each cell's slice is ascending.
+  std::vector<int> cell_of(uv.size(), -1);
+  cell_start_.assign(cells + 1, 0);
   for (std::size_t i = 0; i < uv.size(); ++i) {
     const double u = uv[i].x();
     const double v = uv[i].y();
@@ -115,8 +117,15 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
     // Rounding can put a coordinate just below the end into cell `cols`: clamp.
     const int cx = std::min(static_cast<int>((u - min_u_) / cell_w_), cols_ - 1);
     const int cy = std::min(static_cast<int>((v - min_v_) / cell_h_), rows_ - 1);
-    cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(cols_) + static_cast<std::size_t>(cx)]
-        .push_back(static_cast<int>(i));
+    cell_of[i] = cy * cols_ + cx;
+    ++cell_start_[static_cast<std::size_t>(cell_of[i]) + 1];
+  }
+  for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
+  indices_.resize(static_cast<std::size_t>(cell_start_[cells]));
+  std::vector<int> next(cell_start_.begin(), cell_start_.end() - 1);
+  for (std::size_t i = 0; i < uv.size(); ++i) {
+    if (cell_of[i] < 0) continue;
+    indices_[static_cast<std::size_t>(next[static_cast<std::size_t>(cell_of[i])]++)] = static_cast<int>(i);
   }
 }
 
@@ -124,25 +133,54 @@ std::vector<int> FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d
                                                double u, double v, double radius_px, int min_level,
                                                int max_level) const {
   std::vector<int> found;
-  if (cells_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return found;
-  const bool check_level = min_level >= 0 || max_level >= 0;
-  FLEETSLAM_CHECK(!check_level || level.size() == uv.size(), "level bounds need one level per feature");
-  const CellRange cx = overlapping_cells(u - radius_px, u + radius_px, min_u_, cell_w_, cols_);
-  const CellRange cy = overlapping_cells(v - radius_px, v + radius_px, min_v_, cell_h_, rows_);
-  const double r2 = radius_px * radius_px;
-  for (int y = cy.first; y <= cy.last; ++y) {
-    for (int x = cx.first; x <= cx.last; ++x) {
-      for (const int i : cells_[static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_) +
-                                static_cast<std::size_t>(x)]) {
-        const auto k = static_cast<std::size_t>(i);
-        FLEETSLAM_CHECK(k < uv.size(), "FeatureGrid queried with fewer features than it was built from");
-        if (check_level && !level_in_bounds(level[k], min_level, max_level)) continue;
-        if ((uv[k] - Eigen::Vector2d(u, v)).squaredNorm() <= r2) found.push_back(i);
-      }
-    }
-  }
+  features_in_area(uv, level, u, v, radius_px, min_level, max_level, found);
   std::sort(found.begin(), found.end());
   return found;
+}
+
+std::size_t FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
+                                          double u, double v, double radius_px, int min_level, int max_level,
+                                          std::vector<int>& found) const {
+  if (cell_start_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return 0;
+  const std::size_t before = found.size();
+  if (min_level >= 0 || max_level >= 0) {
+    FLEETSLAM_CHECK(level.size() == uv.size(), "level bounds need one level per feature");
+    append_in_area<true>(uv, level, u, v, radius_px, min_level, max_level, found);
+  } else {
+    append_in_area<false>(uv, level, u, v, radius_px, min_level, max_level, found);
+  }
+  return found.size() - before;
+}
+
+template <bool kCheckLevel>
+void FeatureGrid::append_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
+                                 double v, double radius_px, int min_level, int max_level,
+                                 std::vector<int>& found) const {
+  const CellRange cx = overlapping_cells(u - radius_px, u + radius_px, min_u_, cell_w_, cols_);
+  if (cx.first > cx.last) return;
+  const CellRange cy = overlapping_cells(v - radius_px, v + radius_px, min_v_, cell_h_, rows_);
+  // An unbounded side of the level window becomes a bound every level meets.
+  const int lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
+  const int highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
+  const double r2 = radius_px * radius_px;
+  const std::size_t size = uv.size();
+  const Eigen::Vector2d* points = uv.data();
+  const int* levels = level.data();
+  const int* indices = indices_.data();
+  for (int y = cy.first; y <= cy.last; ++y) {
+    // Cells x = cx.first .. cx.last of row y are one contiguous slice of indices_.
+    const std::size_t row = static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_);
+    const int end = cell_start_[row + static_cast<std::size_t>(cx.last) + 1];
+    for (int j = cell_start_[row + static_cast<std::size_t>(cx.first)]; j < end; ++j) {
+      const int i = indices[j];
+      const auto k = static_cast<std::size_t>(i);
+      FLEETSLAM_CHECK(k < size, "FeatureGrid queried with fewer features than it was built from");
+      if (kCheckLevel && (levels[k] < lowest || levels[k] > highest)) continue;
+      const double du = points[k].x() - u;
+      const double dv = points[k].y() - v;
+      if (du * du + dv * dv <= r2) found.push_back(i);
+    }
+  }
 }
 
 std::optional<Eigen::Vector3d> Frame::unproject(std::size_t i) const {

@@ -2,6 +2,7 @@
 // unprojection, finalize() and the undistorted image bounds.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -84,6 +85,51 @@ TEST(FeatureGrid, RadiusQueriesMatchBruteForce) {
   EXPECT_TRUE(grid.features_in_area(uv, level, std::nan(""), 10.0, 5.0).empty());
   EXPECT_TRUE(grid.features_in_area(uv, level, 10.0, 10.0, -1.0).empty());
   EXPECT_TRUE(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0).empty());
+}
+
+// The appending overload: the same features (in grid order), appended after what the vector held, one
+// vector reused across queries.
+TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {
+  std::mt19937 rng(43);
+  std::uniform_real_distribution<double> u_dist(-30.0, 670.0), v_dist(-30.0, 510.0), r_dist(0.0, 80.0);
+  std::uniform_int_distribution<int> level_dist(0, 7), bound_dist(-1, 7), prefix_dist(0, 3);
+  const ImageBounds bounds = ImageBounds::of_image(640, 480);
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<int> level;
+  for (int i = 0; i < 2000; ++i) {
+    uv.emplace_back(u_dist(rng), v_dist(rng));
+    level.push_back(level_dist(rng));
+  }
+  for (int i = 0; i < 50; ++i) {  // duplicates: several features in one spot
+    uv.push_back(uv[static_cast<std::size_t>(i)]);
+    level.push_back(level[static_cast<std::size_t>(i)]);
+  }
+  const FeatureGrid grid(uv, bounds);
+  std::vector<int> found;
+  for (int q = 0; q < 3000; ++q) {
+    const double u = u_dist(rng), v = v_dist(rng), r = q % 50 == 0 ? 0.0 : r_dist(rng);
+    const int min_level = q % 3 == 0 ? -1 : bound_dist(rng);
+    const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
+    found.assign(static_cast<std::size_t>(prefix_dist(rng)), -7);  // earlier contents stay
+    const std::size_t prefix = found.size();
+    const std::size_t appended = grid.features_in_area(uv, level, u, v, r, min_level, max_level, found);
+    ASSERT_EQ(found.size(), prefix + appended);
+    EXPECT_TRUE(std::all_of(found.begin(), found.begin() + static_cast<long>(prefix), [](int i) { return i == -7; }));
+    std::vector<int> tail(found.begin() + static_cast<long>(prefix), found.end());
+    std::sort(tail.begin(), tail.end());
+    ASSERT_EQ(tail, oracle(uv, level, bounds, u, v, r, min_level, max_level)) << "query " << q;
+    ASSERT_EQ(tail, grid.features_in_area(uv, level, u, v, r, min_level, max_level));
+  }
+  found.assign(2, 5);
+  EXPECT_EQ(grid.features_in_area(uv, level, std::nan(""), 10.0, 5.0, -1, -1, found), 0u);
+  EXPECT_EQ(grid.features_in_area(uv, level, 10.0, 10.0, -1.0, 0, 3, found), 0u);
+  EXPECT_EQ(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0, -1, -1, found), 0u);
+  EXPECT_EQ(grid.features_in_area(uv, level, -500.0, 10.0, 20.0, -1, -1, found), 0u);  // off the grid
+  EXPECT_EQ(found, std::vector<int>(2, 5));
+  // Level bounds need the levels; fewer uv than the grid was built from is caught.
+  EXPECT_THROW(grid.features_in_area(uv, {}, 320.0, 240.0, 50.0, 0, 2, found), InvariantError);
+  const std::vector<Eigen::Vector2d> fewer(uv.begin(), uv.begin() + 10);
+  EXPECT_THROW(grid.features_in_area(fewer, {}, 320.0, 240.0, 1000.0, -1, -1, found), InvariantError);
 }
 
 Frame frame_with(const std::vector<Eigen::Vector2d>& uv, const std::vector<double>& depth) {

@@ -54,6 +54,8 @@ ImageBounds undistorted_image_bounds(const core::PinholeCamera& raw);
 
 // Buckets of feature indices over the undistorted image for radius queries (ORB-SLAM's 64x48 grid).
 // The grid borrows nothing: queries take the same uv (and level) vectors it was built from.
+// Stored contiguously (compressed rows): the indices of all cells in one array, cell by cell in row-major
+// order and ascending within a cell, and each cell's start in it; a query scans one slice per grid row.
 class FeatureGrid {
  public:
   FeatureGrid() = default;
@@ -71,14 +73,28 @@ class FeatureGrid {
   std::vector<int> features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
                                     double u, double v, double radius_px, int min_level = -1,
                                     int max_level = -1) const;
-  bool empty() const { return cells_.empty(); }
+  // The same features, appended to `found` (its contents are kept; no allocation once its capacity
+  // suffices, so one vector can serve many queries) in grid order: by cell row, then cell column,
+  // ascending within a cell, so NOT sorted across cells (sort the appended range for index order).
+  // Returns how many were appended.
+  std::size_t features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
+                               double v, double radius_px, int min_level, int max_level,
+                               std::vector<int>& found) const;
+  bool empty() const { return cell_start_.empty(); }
 
  private:
+  template <bool kCheckLevel>
+  void append_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                      double radius_px, int min_level, int max_level, std::vector<int>& found) const;
+
   int cols_ = 0;
   int rows_ = 0;
   double min_u_ = 0.0, min_v_ = 0.0;
   double cell_w_ = 1.0, cell_h_ = 1.0;
-  std::vector<std::vector<int>> cells_;
+  // Cell c (row-major, y * cols + x) holds indices_[cell_start_[c], cell_start_[c + 1]); cols * rows + 1
+  // entries once built, none for a default-constructed grid.
+  std::vector<int> cell_start_;
+  std::vector<int> indices_;
 };
 
 struct Frame {
