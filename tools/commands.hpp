@@ -23,4 +23,9 @@ void add_dataset_command(CLI::App& app, const GlobalOptions& global);
 // scenario and write each robot's stream as a sequence in DIR/<robot>/ with its ORB-SLAM3 settings.
 void add_generate_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam replay DATASET [--format tum_rgbd|euroc|tumvi] [--sensor rgbd|stereo] [--config C.yaml]
+// [--calibration ORB-SLAM.yaml] [--groundtruth G] [--out DIR] [--max-frames N]: run one SLAM agent over
+// a recorded sequence; write its trajectories, timings, keyframe decisions, config and ATE to DIR.
+void add_replay_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools

@@ -16,7 +16,11 @@ std::optional<ProjectedPoint> project_map_point(const MapPoint& point, const Fra
   const core::PinholeCamera& camera = frame.camera;
   const Eigen::Vector2d uv(camera.fx() * p_cam.x() / p_cam.z() + camera.cx(),
                            camera.fy() * p_cam.y() / p_cam.z() + camera.cy());
-  if (!camera.in_image(uv)) return std::nullopt;
+  // Undistorted coordinates of a distorted camera spread beyond the image rectangle: the frame's bounds.
+  const ImageBounds& b = frame.bounds;
+  const bool inside = b.empty() ? camera.in_image(uv)
+                                : uv.x() >= b.min_u && uv.x() < b.max_u && uv.y() >= b.min_v && uv.y() < b.max_v;
+  if (!inside) return std::nullopt;
   // Scale invariance: ORB only sees the point over the distance range its pyramid covers.
   const Eigen::Vector3d camera_center = T_cam_world.inverse().translation();
   const Eigen::Vector3d ray = point.position - camera_center;

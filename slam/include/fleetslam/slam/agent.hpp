@@ -1,0 +1,151 @@
+#pragma once
+// The per-robot SLAM agent: sensor frames in, value updates out (DESIGN.md data flow).
+//   FrameBuilder (features, depth) -> Tracker (pose, keyframe decision) -> LocalMapper (map upkeep)
+// Deterministic mode (default) runs local mapping inline after each keyframe: the same frames give
+// bit-identical results. Threaded mode (`threaded: true`) runs the same mapping steps on one worker
+// thread; the map is shared under one mutex (tracking holds it per frame, the worker per step, and local
+// BA solves on a copy without it), so results vary from run to run with the scheduling.
+//
+// Bad input (empty image, an image of the wrong size, a stamp that does not advance) is rejected in the
+// update with a reason; a frame without texture or depth goes to tracking and comes back not tracked
+// (lost / not initialised) with a reason; nothing throws for bad frames.
+// Poses are reported for the rig's cam0 (when the front end rectifies a stereo pair, tracking works in
+// the rectified left camera and poses are mapped back). The world frame is cam0 at the first tracked
+// frame.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/core/sensor_frame.hpp"
+#include "fleetslam/core/sensor_rig.hpp"
+#include "fleetslam/core/trajectory.hpp"
+#include "fleetslam/slam/frame_builder.hpp"
+#include "fleetslam/slam/keyframe_policy.hpp"
+#include "fleetslam/slam/local_mapping.hpp"
+#include "fleetslam/slam/map.hpp"
+#include "fleetslam/slam/tracker.hpp"
+
+namespace fleetslam::slam {
+
+// Which sensors the agent uses: the rig's mode, or RGB-D / stereo explicitly (a stereo rig's images
+// may also be run as RGB-D only when frames carry depth).
+enum class AgentSensor { kRig, kRgbd, kStereo };
+
+struct AgentConfig {
+  AgentSensor sensor = AgentSensor::kRig;
+  FrameBuilderConfig frontend;
+  TrackingConfig tracking;
+  KeyframePolicyConfig keyframes;
+  LocalMappingConfig mapping;
+  bool threaded = false;
+  int max_mapping_queue = 3;             // threaded: keyframes waiting beyond this are not inserted
+  double dropped_frame_periods = 1.5;    // a gap longer than this many frame periods is reported
+
+  template <class V>
+  void visit(V& v) {
+    v.choice("sensor", sensor,
+             {{"rig", AgentSensor::kRig}, {"rgbd", AgentSensor::kRgbd}, {"stereo", AgentSensor::kStereo}});
+    v("frontend", frontend);
+    v("matching", tracking.matcher);
+    v("optimizer", tracking.pose_optimizer);
+    v("keyframes", keyframes);
+    v("tracking", tracking);
+    v("mapping", mapping);
+    v("threaded", threaded);
+    v("max_mapping_queue", max_mapping_queue, core::Limits<int>{1, 1000});
+    v("dropped_frame_periods", dropped_frame_periods, core::Limits<double>{1.0, 1000.0});
+  }
+};
+
+enum class FrameStatus {
+  kTracked,         // pose estimated against the map
+  kInitialized,     // started a map component (first keyframe)
+  kNotInitialized,  // no map yet and not enough depth to start one
+  kLost,            // tracking failed (a later frame starts a new component)
+  kRejected,        // bad input, not processed
+};
+std::string to_string(FrameStatus status);  // "tracked", "initialized", "not_initialized", "lost", "rejected"
+
+// A keyframe as the central unit sees it: pose (cam0) and its map points.
+struct KeyframeSnapshot {
+  KeyframeId id = -1;
+  core::TimeNs t_ns = 0;
+  int component = 0;
+  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
+  std::vector<MapPointId> point_ids;
+  std::vector<Eigen::Vector3d> points_world;
+};
+
+struct AgentTimings {
+  double extract_ms = 0.0;     // front end: image conversion, ORB, undistortion, depth
+  double match_ms = 0.0;       // frame-to-frame matching
+  double pose_ms = 0.0;        // pose-only optimisations
+  double local_map_ms = 0.0;   // local map projection search
+  double tracking_ms = 0.0;    // extract + everything tracking did (the per-frame tracking cost)
+  double mapping_ms = 0.0;     // inline local mapping (deterministic mode, keyframes only)
+  double total_ms = 0.0;       // the whole process() call
+};
+
+struct AgentUpdate {
+  int robot_id = 0;
+  std::int64_t sequence = 0;
+  core::TimeNs t_ns = 0;
+  FrameStatus status = FrameStatus::kRejected;
+  TrackingState tracking_state = TrackingState::kNotInitialized;
+  std::string reason;  // why not tracked / rejected; notes (no depth, dropped frames) otherwise
+  std::optional<Eigen::Isometry3d> T_world_cam;  // cam0, when tracked or initialised
+  int component = -1;
+  int features = 0;
+  int features_with_depth = 0;
+  int inliers = 0;
+  std::vector<KeyframeSnapshot> new_keyframes;
+  std::vector<KeyframeSnapshot> changed_keyframes;  // poses moved by local BA since the last update
+  std::vector<KeyframeId> removed_keyframes;         // culled since the last update
+  std::optional<KeyframeDecision> keyframe_decision;
+  AgentTimings timings;
+
+  bool has_pose() const { return T_world_cam.has_value(); }
+};
+
+struct MapStats {
+  std::size_t keyframes = 0;
+  std::size_t points = 0;
+  int components = 0;
+};
+
+class Agent {
+ public:
+  // Throws InputError for a rig the front end cannot use or a sensor choice the rig does not have.
+  explicit Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger);
+  ~Agent();
+  Agent(Agent&&) noexcept;
+  Agent& operator=(Agent&&) noexcept;
+  Agent(const Agent&) = delete;
+  Agent& operator=(const Agent&) = delete;
+
+  AgentUpdate process(const core::SensorFrame& frame);
+  // Threaded mode: waits until local mapping has handled every queued keyframe. No-op otherwise.
+  void finish();
+
+  // Every tracked frame, cam0, each pose relative to its reference keyframe so it follows the
+  // keyframes' corrections (as ORB-SLAM saves trajectories).
+  core::Trajectory trajectory() const;
+  // The keyframes still in the map, cam0, in time order.
+  core::Trajectory keyframe_trajectory() const;
+  TrackingState state() const;
+  MapStats map_stats() const;
+  const AgentConfig& config() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace fleetslam::slam

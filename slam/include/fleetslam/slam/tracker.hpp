@@ -1,0 +1,169 @@
+#pragma once
+// Tracking: the camera pose of every frame against the agent's map (ORB-SLAM's design, written here).
+//   not initialised -> the first frame with enough features, enough of them with depth, starts a map
+//         (points from depth);
+//   ok -> constant-velocity prediction, projection matching against the last frame (cross-validation as
+//         the matcher config says; stage 2 uses the current frame's depth points), falling back to the
+//         reference keyframe seen from the last pose with a wider radius; pose-only optimisation after each
+//         stage; then the local map (keyframes sharing points with the frame and their neighbours)
+//         projected with visibility checks, matched on the grid, pose optimised again;
+//   too few inliers -> lost; the next recovery_frames frames retry the reference keyframe from the last
+//         good pose; then the next frame with enough depth starts a new map component at the last
+//         known pose (relocalisation comes later).
+// The keyframe decision is the policy's (keyframe_policy.hpp), fed with the frame's real quantities.
+// The tracker reads and updates the map (tracking counters) but inserts nothing: the agent hands the
+// frame to local mapping when the result asks for a keyframe.
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/slam/frame.hpp"
+#include "fleetslam/slam/keyframe_policy.hpp"
+#include "fleetslam/slam/map.hpp"
+#include "fleetslam/slam/map_projection.hpp"
+#include "fleetslam/slam/matcher.hpp"
+#include "fleetslam/slam/optimizer.hpp"
+
+namespace fleetslam::slam {
+
+enum class TrackingState { kNotInitialized, kOk, kLost };
+std::string to_string(TrackingState state);  // "not_initialized", "ok", "lost"
+
+// Matching and optimisation settings come in apart (the agent's `matching` and `optimizer` sections);
+// these are tracking's own.
+struct TrackingConfig {
+  MatcherConfig matcher = default_matcher();  // motion-model stage against the last frame
+  OptimizerConfig pose_optimizer;
+  // Reference-keyframe stage: the last pose only (no prediction), so the window is wider.
+  double reference_radius_factor = 3.0;
+  ProjectionSearchConfig local_map;
+  int init_min_features = 500;        // features needed to start a map (ORB-SLAM's N > 500) ...
+  int init_min_depth_features = 100;  // ... of which this many with depth (they become its points)
+  int min_frame_matches = 20;         // frame-to-frame matches below this: widen, then fall back
+  int min_frame_inliers = 10;         // map-point inliers after optimising a frame-to-frame stage
+  int min_local_map_inliers = 30;     // inliers after the local map stage; fewer -> lost
+  int recovery_frames = 5;            // lost frames that retry the reference keyframe before a new map
+  int local_neighbours_per_keyframe = 10;
+  int max_local_keyframes = 80;
+  // Keyframes viewing the same area (axes within view_max_angle_rad, centres within view_max_distance_m)
+  // join the local map even when they share no point with it yet, up to view_keyframes of them.
+  int view_keyframes = 10;
+  double view_max_angle_rad = 0.5;
+  double view_max_distance_m = 1.0;
+  // ORB-SLAM's temporary visual-odometry points: the last frame's close depth features without a map
+  // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
+  bool last_frame_depth_points = true;
+
+  // ORB-SLAM's window for RGB-D / stereo motion-model tracking: 7 px at level 0 (15 monocular).
+  static MatcherConfig default_matcher();
+
+  // Without `matcher` and `pose_optimizer` (the agent visits those as its own sections).
+  template <class V>
+  void visit(V& v) {
+    v("reference_radius_factor", reference_radius_factor, core::Limits<double>{1.0, 100.0});
+    v("local_map", local_map);
+    v("init_min_features", init_min_features, core::Limits<int>{1, 100000});
+    v("init_min_depth_features", init_min_depth_features, core::Limits<int>{1, 100000});
+    v("min_frame_matches", min_frame_matches, core::Limits<int>{3, 100000});
+    v("min_frame_inliers", min_frame_inliers, core::Limits<int>{3, 100000});
+    v("min_local_map_inliers", min_local_map_inliers, core::Limits<int>{3, 100000});
+    v("recovery_frames", recovery_frames, core::Limits<int>{0, 100000});
+    v("local_neighbours_per_keyframe", local_neighbours_per_keyframe, core::Limits<int>{0, 1000});
+    v("max_local_keyframes", max_local_keyframes, core::Limits<int>{1, 10000});
+    v("view_keyframes", view_keyframes, core::Limits<int>{0, 10000});
+    v("view_max_angle_rad", view_max_angle_rad, core::Limits<double>{0.0, 3.2});
+    v("view_max_distance_m", view_max_distance_m, core::Limits<double>{0.0, 1e6});
+    v("last_frame_depth_points", last_frame_depth_points);
+  }
+};
+
+// What the tracker is told about the rest of the agent for this frame.
+struct TrackingInputs {
+  bool local_mapping_idle = true;
+  int local_mapping_queue = 0;
+  double fps = 30.0;
+  // Where a new map component starts when nothing better is known (the first one: the world origin).
+  Eigen::Isometry3d initial_T_world_cam = Eigen::Isometry3d::Identity();
+};
+
+struct TrackingTimings {
+  double match_ms = 0.0;      // frame-to-frame matching (motion model / reference keyframe)
+  double pose_ms = 0.0;       // pose-only optimisations
+  double local_map_ms = 0.0;  // local map selection, projection and search
+};
+
+struct TrackingResult {
+  TrackingState state = TrackingState::kNotInitialized;
+  bool initialized = false;  // this frame starts a map component (it becomes its first keyframe)
+  std::string stage;         // "init", "motion_model", "reference_keyframe", or empty when not tracked
+  std::string reason;        // why the frame is not tracked (empty when tracked)
+  std::optional<Eigen::Isometry3d> T_world_cam;
+  KeyframeId reference_keyframe = -1;
+  int features = 0;
+  int frame_matches = 0;   // frame-to-frame stage matches
+  int inliers = 0;         // map points tracked after the local map stage
+  bool insert_keyframe = false;
+  std::optional<KeyframeDecision> decision;
+  std::optional<KeyframeContext> context;
+  TrackingTimings timings;
+};
+
+class Tracker {
+ public:
+  Tracker(const TrackingConfig& config, const KeyframePolicyConfig& keyframes, core::Logger logger);
+
+  // Tracks `frame` (its map_points, outlier and T_world_cam are set) against `map`.
+  TrackingResult track(Frame& frame, Map& map, const TrackingInputs& inputs);
+  // The frame just tracked became keyframe `id` (with its points as local mapping created them): it is
+  // the new reference, and the next frame matches against its points.
+  void keyframe_inserted(KeyframeId id, const Map& map);
+
+  TrackingState state() const { return state_; }
+  int component() const { return component_; }
+
+ private:
+  struct Working;  // per-frame scratch (temporary points, counters)
+
+  TrackingResult initialize(Frame& frame, const TrackingInputs& inputs);
+  bool track_last_frame(Working& w, Map& map, TrackingResult& result);
+  bool track_reference_keyframe(Working& w, Map& map, TrackingResult& result);
+  int match_reference(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw,
+                      const MatcherConfig& matcher, TrackingResult& result);
+  bool track_local_map(Working& w, Map& map, TrackingResult& result);
+  void lose(Working& w, const Map& map, TrackingResult& result);
+  int optimize(Working& w, const Map& map, const Eigen::Isometry3d& T_cam_world_initial, TrackingResult& result);
+  void decide_keyframe(Working& w, const Map& map, const TrackingInputs& inputs, TrackingResult& result);
+  std::optional<Eigen::Isometry3d> last_frame_pose(const Map& map) const;
+  std::optional<Eigen::Isometry3d> predicted_pose(const Map& map, core::TimeNs t_ns) const;
+  void remember(const Working& w, const Map& map, bool tracked);
+
+  TrackingConfig config_;
+  std::unique_ptr<KeyframePolicy> policy_;
+  core::Logger logger_;
+
+  TrackingState state_ = TrackingState::kNotInitialized;
+  int component_ = -1;
+  int lost_frames_ = 0;  // consecutive frames lost (the current one included)
+  // The last tracked frame, its pose held relative to its reference keyframe so that it follows
+  // local BA corrections (ORB-SLAM's UpdateLastFrame).
+  std::optional<Frame> last_frame_;
+  std::vector<std::optional<Eigen::Vector3d>> last_depth_points_;  // camera frame, for free features
+  KeyframeId last_reference_ = -1;
+  Eigen::Isometry3d T_ref_last_ = Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> last_T_world_cam_;  // the last estimate (also after loss)
+  // Constant-velocity model: T_cur_last of the last two tracked frames and their time difference.
+  std::optional<Eigen::Isometry3d> velocity_;
+  core::TimeNs velocity_dt_ns_ = 0;
+  KeyframeId reference_keyframe_ = -1;
+  core::TimeNs last_keyframe_t_ns_ = 0;
+  int frames_since_keyframe_ = 0;
+};
+
+}  // namespace fleetslam::slam

@@ -1,0 +1,110 @@
+// The agent: front end, tracking and local mapping composed, one frame at a time.
+
+#include "fleetslam/slam/agent.hpp"
+
+#include <mutex>
+
+#include <spdlog/logger.h>
+
+#include "agent_impl.hpp"
+#include "fleetslam/core/error.hpp"
+#include "stopwatch.hpp"
+
+namespace fleetslam::slam {
+
+std::string to_string(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::kTracked: return "tracked";
+    case FrameStatus::kInitialized: return "initialized";
+    case FrameStatus::kNotInitialized: return "not_initialized";
+    case FrameStatus::kLost: return "lost";
+    case FrameStatus::kRejected: return "rejected";
+  }
+  return "unknown";
+}
+
+namespace {
+
+// The rig as the front end should use it: the sensor mode the config asks for.
+core::SensorRig rig_for(const AgentConfig& config, core::SensorRig rig) {
+  switch (config.sensor) {
+    case AgentSensor::kRig: break;
+    case AgentSensor::kRgbd: rig.mode = core::SensorMode::kRgbd; break;
+    case AgentSensor::kStereo:
+      if (!rig.cam1) throw InputError("sensor", "stereo needs a rig with a second camera (cam1)");
+      rig.mode = core::SensorMode::kStereo;
+      break;
+  }
+  return rig;
+}
+
+}  // namespace
+
+Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l)
+    : config(c),
+      rig(rig_for(c, r)),
+      logger(std::move(l)),
+      builder(c.frontend, rig),
+      tracker(c.tracking, c.keyframes, logger),
+      mapper(c.mapping, logger) {
+  if (config.threaded) worker = std::make_unique<MappingWorker>(mapper, map, map_mutex, changes, logger);
+}
+
+Agent::Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger) {
+  FLEETSLAM_CHECK(logger != nullptr, "Agent needs a logger (core::null_logger() discards)");
+  impl_ = std::make_unique<Impl>(config, rig, std::move(logger));
+}
+
+Agent::~Agent() = default;
+Agent::Agent(Agent&&) noexcept = default;
+Agent& Agent::operator=(Agent&&) noexcept = default;
+
+const AgentConfig& Agent::config() const { return impl_->config; }
+
+void Agent::finish() {
+  if (impl_->worker) impl_->worker->wait_idle();
+}
+
+TrackingState Agent::state() const {
+  const std::lock_guard<std::mutex> lock(impl_->map_mutex);
+  return impl_->tracker.state();
+}
+
+AgentUpdate Agent::process(const core::SensorFrame& sensor) {
+  Impl& s = *impl_;
+  const Stopwatch total;
+  AgentUpdate u;
+  u.robot_id = sensor.robot_id;
+  u.sequence = sensor.sequence;
+  u.t_ns = sensor.t_ns;
+  if (s.last_t_ns && sensor.t_ns <= *s.last_t_ns) {
+    u.reason = "timestamp " + core::format_seconds(sensor.t_ns, 6) + " s does not advance past the previous " +
+               core::format_seconds(*s.last_t_ns, 6) + " s";
+    s.reject(u);
+    return u;
+  }
+  const Stopwatch extract;
+  FrameBuildResult built = s.builder.build(sensor);
+  u.timings.extract_ms = extract.elapsed_ms();
+  u.features = static_cast<int>(built.frame.size());
+  u.features_with_depth = built.features_with_depth;
+  if (s.is_rejection(built.status)) {
+    u.reason = built.reason;
+    s.reject(u);
+    u.timings.total_ms = total.elapsed_ms();
+    return u;
+  }
+  std::string notes = built.ok() ? "" : built.reason;
+  if (s.last_t_ns) s.note_gap(sensor.t_ns - *s.last_t_ns, notes);
+  s.last_t_ns = sensor.t_ns;
+  {
+    const std::lock_guard<std::mutex> lock(s.map_mutex);
+    s.track_and_map(built.frame, u);
+    s.report_changes(u);
+  }
+  if (!notes.empty()) u.reason = u.reason.empty() ? notes : u.reason + "; " + notes;
+  u.timings.total_ms = total.elapsed_ms();
+  return u;
+}
+
+}  // namespace fleetslam::slam

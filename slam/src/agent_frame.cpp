@@ -1,0 +1,121 @@
+// One frame through the agent once its input is accepted: tracking, keyframe insertion, local mapping.
+
+#include <cmath>
+#include <cstdio>
+
+#include <spdlog/logger.h>
+
+#include "agent_impl.hpp"
+#include "stopwatch.hpp"
+
+namespace fleetslam::slam {
+
+bool Agent::Impl::is_rejection(FrameBuildStatus status) const {
+  return status == FrameBuildStatus::kEmptyImage || status == FrameBuildStatus::kUnsupportedImage ||
+         status == FrameBuildStatus::kWrongImageSize;
+}
+
+void Agent::Impl::reject(AgentUpdate& u) const {
+  u.status = FrameStatus::kRejected;
+  u.tracking_state = tracker.state();
+  logger->warn("frame {} rejected: {}", u.sequence, u.reason);
+}
+
+void Agent::Impl::note_gap(core::TimeNs dt_ns, std::string& notes) const {
+  if (!(rig.fps > 0.0)) return;
+  const double periods = core::ns_to_seconds(dt_ns) * rig.fps;
+  if (periods <= config.dropped_frame_periods) return;
+  char text[96];
+  std::snprintf(text, sizeof text, "gap of %.1f frame periods (dropped frames?)", periods);
+  notes += notes.empty() ? text : std::string("; ") + text;
+}
+
+Eigen::Isometry3d Agent::Impl::to_cam0(const Eigen::Isometry3d& T_world_cam) const {
+  return T_world_cam * builder.T_cam0_rect0().inverse();
+}
+
+void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
+  TrackingInputs inputs;
+  inputs.fps = rig.fps;
+  inputs.local_mapping_queue = worker ? worker->pending() : 0;
+  inputs.local_mapping_idle = inputs.local_mapping_queue == 0;
+  inputs.initial_T_world_cam = builder.T_cam0_rect0();  // the world is cam0 of the first frame
+  const Stopwatch watch;
+  const TrackingResult tracked = tracker.track(frame, map, inputs);
+  u.timings.tracking_ms = u.timings.extract_ms + watch.elapsed_ms();
+  u.timings.match_ms = tracked.timings.match_ms;
+  u.timings.pose_ms = tracked.timings.pose_ms;
+  u.timings.local_map_ms = tracked.timings.local_map_ms;
+  u.tracking_state = tracked.state;
+  u.inliers = tracked.inliers;
+  u.reason = tracked.reason;
+  u.keyframe_decision = tracked.decision;
+  u.component = tracker.component();
+  u.status = tracked.initialized                          ? FrameStatus::kInitialized
+             : tracked.state == TrackingState::kOk         ? FrameStatus::kTracked
+             : tracked.state == TrackingState::kLost       ? FrameStatus::kLost
+                                                           : FrameStatus::kNotInitialized;
+  if (!tracked.T_world_cam) {
+    if (tracked.state == TrackingState::kLost) logger->warn("frame {} lost: {}", u.sequence, u.reason);
+    return;
+  }
+  KeyframeId reference = tracked.reference_keyframe;
+  if (tracked.insert_keyframe) insert_keyframe(frame, tracked, u, reference);
+  const std::optional<Eigen::Isometry3d> T_w_ref = map.keyframe_pose(reference);
+  if (!T_w_ref) return;  // cannot happen: the reference is alive while the lock is held
+  records.push_back(FrameRecord{frame.t_ns, reference, T_w_ref->inverse() * *tracked.T_world_cam});
+  // Report the pose after inline mapping (a keyframe's pose may have moved in local BA).
+  u.T_world_cam = to_cam0(*map.keyframe_pose(reference) * records.back().T_ref_cam);
+}
+
+void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference) {
+  if (worker && !tracked.initialized && worker->pending() >= config.max_mapping_queue) {
+    const std::string why = "keyframe not inserted: local mapping busy";
+    u.reason = u.reason.empty() ? why : u.reason + "; " + why;
+    return;
+  }
+  MappingReport report;
+  const KeyframeId id = mapper.insert_keyframe(frame, tracker.component(), tracked.initialized, map, &report);
+  tracker.keyframe_inserted(id, map);
+  new_keyframes.push_back(id);
+  reference = id;
+  if (worker) {
+    worker->push(id);
+    return;
+  }
+  const Stopwatch watch;
+  mapper.process(id, map, report);
+  u.timings.mapping_ms = watch.elapsed_ms();
+  changes.record(report);
+}
+
+KeyframeSnapshot Agent::Impl::snapshot(const Keyframe& kf) const {
+  KeyframeSnapshot s;
+  s.id = kf.id;
+  s.t_ns = kf.t_ns;
+  s.component = kf.component;
+  s.T_world_cam = to_cam0(kf.T_world_cam);
+  for (MapPointId id : kf.frame.map_points) {
+    const MapPoint* p = id == kNoMapPoint ? nullptr : map.point(id);
+    if (p == nullptr) continue;
+    s.point_ids.push_back(id);
+    s.points_world.push_back(p->position);
+  }
+  return s;
+}
+
+void Agent::Impl::report_changes(AgentUpdate& u) {
+  for (KeyframeId id : new_keyframes) {
+    if (const Keyframe* kf = map.keyframe(id)) u.new_keyframes.push_back(snapshot(*kf));
+    changes.changed.erase(id);
+  }
+  new_keyframes.clear();
+  for (KeyframeId id : changes.changed) {
+    if (const Keyframe* kf = map.keyframe(id)) u.changed_keyframes.push_back(snapshot(*kf));
+  }
+  u.removed_keyframes = std::move(changes.removed);
+  changes.changed.clear();
+  changes.removed.clear();
+}
+
+}  // namespace fleetslam::slam

@@ -1,0 +1,106 @@
+// The local mapping worker thread (threaded mode).
+
+#include "mapping_worker.hpp"
+
+#include <optional>
+
+#include <spdlog/logger.h>
+
+#include "stopwatch.hpp"
+
+namespace fleetslam::slam {
+
+void MappingChanges::record(const MappingReport& report) {
+  changed.insert(report.ba.adjusted.begin(), report.ba.adjusted.end());
+  for (KeyframeId id : report.culled_keyframes) {
+    changed.erase(id);
+    removed.push_back(id);
+  }
+}
+
+MappingWorker::MappingWorker(LocalMapper& mapper, Map& map, std::mutex& map_mutex, MappingChanges& changes,
+                             core::Logger logger)
+    : mapper_(mapper), map_(map), map_mutex_(map_mutex), changes_(changes), logger_(std::move(logger)),
+      thread_([this] { run(); }) {}
+
+MappingWorker::~MappingWorker() {
+  {
+    const std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+void MappingWorker::push(KeyframeId keyframe) {
+  {
+    const std::lock_guard<std::mutex> lock(queue_mutex_);
+    queue_.push_back(keyframe);
+  }
+  wake_.notify_one();
+}
+
+int MappingWorker::pending() const {
+  const std::lock_guard<std::mutex> lock(queue_mutex_);
+  return static_cast<int>(queue_.size()) + (busy_ ? 1 : 0);
+}
+
+void MappingWorker::wait_idle() {
+  std::unique_lock<std::mutex> lock(queue_mutex_);
+  idle_.wait(lock, [this] { return queue_.empty() && !busy_; });
+}
+
+void MappingWorker::run() {
+  for (;;) {
+    KeyframeId keyframe = -1;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      wake_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      if (stop_) return;
+      keyframe = queue_.front();
+      queue_.pop_front();
+      busy_ = true;
+    }
+    try {
+      process(keyframe);
+    } catch (const std::exception& e) {
+      // A thread must not let an exception escape (std::terminate); the keyframe simply gets no upkeep.
+      logger_->error("local mapping of keyframe {} failed: {}", keyframe, e.what());
+    }
+    {
+      const std::lock_guard<std::mutex> lock(queue_mutex_);
+      busy_ = false;
+    }
+    idle_.notify_all();
+  }
+}
+
+void MappingWorker::process(KeyframeId keyframe) {
+  const Stopwatch watch;
+  MappingReport report;
+  report.keyframe = keyframe;
+  const LocalMappingConfig& config = mapper_.config();
+  std::optional<LocalBaProblem> problem;
+  {
+    const std::lock_guard<std::mutex> lock(map_mutex_);
+    report.culled_points = mapper_.cull_recent_points(keyframe, map_);
+    if (config.triangulate) report.triangulated = mapper_.triangulate(keyframe, map_);
+    if (config.fuse) report.fused = mapper_.fuse(keyframe, map_);
+    if (config.local_ba) problem = mapper_.prepare_local_ba(keyframe, map_);
+  }
+  std::optional<BaResult> solved;
+  if (problem) solved = mapper_.solve_local_ba(*problem);  // without the lock: tracking goes on
+  {
+    const std::lock_guard<std::mutex> lock(map_mutex_);
+    if (problem) report.ba = mapper_.apply_local_ba(*problem, *solved, map_);
+    if (config.cull_keyframes) report.culled_keyframes = mapper_.cull_keyframes(keyframe, map_);
+    changes_.record(report);
+  }
+  report.ms = watch.elapsed_ms();
+  logger_->debug("worker: keyframe {}: {} culled points, {} triangulated, {} fused, BA rms {:.3f} -> {:.3f} px, "
+                 "{} keyframes culled, {:.1f} ms",
+                 keyframe, report.culled_points, report.triangulated, report.fused, report.ba.initial_rms_px,
+                 report.ba.final_rms_px, report.culled_keyframes.size(), report.ms);
+}
+
+}  // namespace fleetslam::slam

@@ -1,0 +1,178 @@
+// Tracking state machine: initialisation, the stages of a tracked frame, the motion model.
+
+#include "fleetslam/slam/tracker.hpp"
+
+#include <spdlog/logger.h>
+
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
+#include "tracker_working.hpp"
+
+namespace fleetslam::slam {
+
+std::string to_string(TrackingState state) {
+  switch (state) {
+    case TrackingState::kNotInitialized: return "not_initialized";
+    case TrackingState::kOk: return "ok";
+    case TrackingState::kLost: return "lost";
+  }
+  return "unknown";
+}
+
+MatcherConfig TrackingConfig::default_matcher() {
+  MatcherConfig c;
+  c.radius_px = 7.0;
+  c.nn_ratio = 0.9;
+  return c;
+}
+
+Tracker::Tracker(const TrackingConfig& config, const KeyframePolicyConfig& keyframes, core::Logger logger)
+    : config_(config), policy_(make_keyframe_policy(keyframes)), logger_(std::move(logger)) {
+  FLEETSLAM_CHECK(logger_ != nullptr, "Tracker needs a logger (core::null_logger() discards)");
+}
+
+TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inputs) {
+  FLEETSLAM_CHECK(frame.map_points.size() == frame.size() && frame.outlier.size() == frame.size(),
+                  "Frame::finalize() must run before tracking");
+  if (state_ == TrackingState::kNotInitialized) return initialize(frame, inputs);
+  // Lost: a few frames try the reference keyframe from the last good pose (a blurred frame or two should
+  // not cost the map); after that a new component starts.
+  const bool recovering = state_ == TrackingState::kLost;
+  if (recovering && ++lost_frames_ > config_.recovery_frames) return initialize(frame, inputs);
+
+  TrackingResult result;
+  result.features = static_cast<int>(frame.size());
+  Working w(frame);
+  bool ok = !recovering && track_last_frame(w, map, result);
+  if (!ok) {
+    w.clear_matches();
+    ok = track_reference_keyframe(w, map, result);
+  }
+  if (ok) ok = track_local_map(w, map, result);
+  if (!ok) {
+    lose(w, map, result);
+    return result;
+  }
+  if (recovering) {
+    result.reason = "recovered after " + std::to_string(lost_frames_ - 1) + " lost frame(s)";
+    logger_->info("t={} {}", core::format_seconds(frame.t_ns, 6), result.reason);
+  }
+  state_ = TrackingState::kOk;
+  lost_frames_ = 0;
+  result.state = state_;
+  result.T_world_cam = frame.T_world_cam;
+  result.reference_keyframe = reference_keyframe_;
+  ++frames_since_keyframe_;
+  decide_keyframe(w, map, inputs, result);
+  w.drop_outliers();
+  remember(w, map, true);
+  return result;
+}
+
+// The frame is not tracked. The last good frame stays the prior for recovery; the constant-velocity
+// guess is where a new component would start.
+void Tracker::lose(Working& w, const Map& map, TrackingResult& result) {
+  if (state_ == TrackingState::kOk) {
+    if (const auto T_cw = predicted_pose(map, w.frame.t_ns)) last_T_world_cam_ = T_cw->inverse();
+    lost_frames_ = 1;
+  }
+  state_ = TrackingState::kLost;
+  velocity_.reset();
+  result.state = state_;
+  result.stage.clear();
+  if (result.reason.empty()) result.reason = "too few matches";
+  w.clear_matches();
+  w.frame.T_world_cam.reset();
+}
+
+TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
+  TrackingResult result;
+  result.state = state_;
+  result.features = static_cast<int>(frame.size());
+  int with_depth = 0;
+  for (std::size_t i = 0; i < frame.size(); ++i) with_depth += frame.has_depth(i) ? 1 : 0;
+  if (result.features < config_.init_min_features || with_depth < config_.init_min_depth_features) {
+    result.reason = std::to_string(result.features) + " features (" + std::to_string(with_depth) +
+                    " with depth); a map needs " + std::to_string(config_.init_min_features) + " (" +
+                    std::to_string(config_.init_min_depth_features) + ")";
+    return result;
+  }
+  // A new component starts where the camera was last believed to be, so the trajectory stays continuous
+  // (the true link between components is unknown until relocalisation / map merging).
+  ++component_;
+  lost_frames_ = 0;
+  frame.T_world_cam = last_T_world_cam_.value_or(inputs.initial_T_world_cam);
+  state_ = TrackingState::kOk;
+  velocity_.reset();
+  result.state = state_;
+  result.initialized = true;
+  result.stage = "init";
+  result.T_world_cam = frame.T_world_cam;
+  result.insert_keyframe = true;
+  logger_->info("map component {} started at t={} s with {} features with depth", component_,
+                core::format_seconds(frame.t_ns, 6), with_depth);
+  return result;
+}
+
+void Tracker::keyframe_inserted(KeyframeId id, const Map& map) {
+  const Keyframe* kf = map.keyframe(id);
+  FLEETSLAM_CHECK(kf != nullptr, "keyframe_inserted: unknown keyframe");
+  reference_keyframe_ = id;
+  last_keyframe_t_ns_ = kf->t_ns;
+  frames_since_keyframe_ = 0;
+  // The next frame matches against the keyframe's points (the new ones from depth included).
+  if (!last_frame_ || last_frame_->t_ns != kf->t_ns) {
+    last_frame_ = kf->frame;
+    velocity_.reset();
+  }
+  last_frame_->map_points = kf->frame.map_points;
+  last_frame_->T_world_cam = kf->T_world_cam;
+  last_reference_ = id;
+  T_ref_last_ = Eigen::Isometry3d::Identity();
+  last_T_world_cam_ = kf->T_world_cam;
+  last_depth_points_.assign(last_frame_->size(), std::nullopt);
+}
+
+void Tracker::remember(const Working& w, const Map& map, bool tracked) {
+  const Eigen::Isometry3d T_wc = *w.frame.T_world_cam;
+  const std::optional<Eigen::Isometry3d> T_wl = last_frame_pose(map);
+  if (tracked && last_frame_ && T_wl && w.frame.t_ns > last_frame_->t_ns) {
+    velocity_ = T_wc.inverse() * *T_wl;
+    velocity_dt_ns_ = w.frame.t_ns - last_frame_->t_ns;
+  }
+  last_frame_ = w.frame;
+  last_reference_ = reference_keyframe_;
+  const std::optional<Eigen::Isometry3d> T_w_ref = map.keyframe_pose(reference_keyframe_);
+  T_ref_last_ = T_w_ref ? T_w_ref->inverse() * T_wc : Eigen::Isometry3d::Identity();
+  last_T_world_cam_ = T_wc;
+  last_depth_points_.assign(w.frame.size(), std::nullopt);
+  if (!config_.last_frame_depth_points) return;
+  for (std::size_t i = 0; i < w.frame.size(); ++i) {
+    if (w.frame.map_points[i] != kNoMapPoint || !w.frame.has_depth(i)) continue;
+    // Near points only: far depth is noisy (ORB-SLAM's close threshold).
+    if (w.frame.close_depth_m > 0.0 && w.frame.depth_m[i] > w.frame.close_depth_m) continue;
+    last_depth_points_[i] = w.frame.unproject(i);
+  }
+}
+
+std::optional<Eigen::Isometry3d> Tracker::last_frame_pose(const Map& map) const {
+  if (!last_frame_) return std::nullopt;
+  if (const auto T_w_ref = map.keyframe_pose(last_reference_)) return *T_w_ref * T_ref_last_;
+  return last_frame_->T_world_cam;
+}
+
+// T_cam_world of a frame at t_ns under constant velocity. The velocity is rescaled when the time step
+// differs (a dropped frame), through the SE(3) logarithm.
+std::optional<Eigen::Isometry3d> Tracker::predicted_pose(const Map& map, core::TimeNs t_ns) const {
+  const std::optional<Eigen::Isometry3d> T_wl = last_frame_pose(map);
+  if (!T_wl || !velocity_ || velocity_dt_ns_ <= 0) return std::nullopt;
+  const core::TimeNs dt_ns = t_ns - last_frame_->t_ns;
+  Eigen::Isometry3d step = *velocity_;
+  if (dt_ns != velocity_dt_ns_) {
+    const double ratio = static_cast<double>(dt_ns) / static_cast<double>(velocity_dt_ns_);
+    step = core::se3_exp(ratio * core::se3_log(*velocity_));
+  }
+  return step * T_wl->inverse();
+}
+
+}  // namespace fleetslam::slam

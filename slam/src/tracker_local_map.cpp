@@ -1,0 +1,184 @@
+// The local map stage of tracking and the keyframe decision.
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include <spdlog/logger.h>
+
+#include "fleetslam/core/se3.hpp"
+#include "fleetslam/slam/tracker.hpp"
+#include "stopwatch.hpp"
+#include "tracker_working.hpp"
+
+namespace fleetslam::slam {
+namespace {
+
+// Keyframes that see the frame's points, strongest first (ties: older first).
+std::vector<std::pair<KeyframeId, int>> observing_keyframes(const Frame& frame, const Map& map) {
+  std::map<KeyframeId, int> counts;
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    if (frame.map_points[i] == kNoMapPoint || frame.outlier[i]) continue;
+    if (const MapPoint* p = map.point(frame.map_points[i])) {
+      for (const auto& observation : p->observations) ++counts[observation.first];
+    }
+  }
+  std::vector<std::pair<KeyframeId, int>> sorted(counts.begin(), counts.end());
+  std::stable_sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+  return sorted;
+}
+
+// ORB-SLAM's local keyframes: those sharing points with the frame, then their best covisible
+// neighbours, children and parent, up to a bound.
+std::vector<KeyframeId> local_keyframes(const std::vector<std::pair<KeyframeId, int>>& observing, const Map& map,
+                                        int neighbours_per_keyframe, int max_keyframes) {
+  std::vector<KeyframeId> local;
+  std::set<KeyframeId> seen;
+  const auto add = [&](KeyframeId id) {
+    if (static_cast<int>(local.size()) < max_keyframes && map.keyframe(id) != nullptr && seen.insert(id).second) {
+      local.push_back(id);
+    }
+  };
+  for (const auto& entry : observing) add(entry.first);
+  const std::size_t first_ring = local.size();
+  for (std::size_t k = 0; k < first_ring; ++k) {
+    const Keyframe& kf = *map.keyframe(local[k]);
+    for (KeyframeId id : kf.best_covisible(neighbours_per_keyframe)) add(id);
+    for (KeyframeId id : kf.children) add(id);
+    if (kf.parent >= 0) add(kf.parent);
+  }
+  return local;
+}
+
+// Keyframes of the component that look at the same part of the scene as the camera: optical axes within
+// max_angle_rad and centres within max_distance_m, nearest in angle first. Covisibility only links
+// keyframes that already share points; these bring back points of an area the camera returns to, so
+// that it re-tracks them instead of duplicating them (and drifting).
+std::vector<KeyframeId> viewing_keyframes(const Map& map, int component, const Eigen::Isometry3d& T_world_cam,
+                                          const TrackingConfig& config) {
+  std::vector<std::pair<double, KeyframeId>> candidates;
+  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.component != component) continue;
+    if ((kf.center() - T_world_cam.translation()).norm() > config.view_max_distance_m) continue;
+    const double angle = std::acos(std::clamp(axis.dot(kf.T_world_cam.linear().col(2)), -1.0, 1.0));
+    if (angle <= config.view_max_angle_rad) candidates.emplace_back(angle, id);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<KeyframeId> ids;
+  for (const auto& candidate : candidates) {
+    if (static_cast<int>(ids.size()) >= config.view_keyframes) break;
+    ids.push_back(candidate.second);
+  }
+  return ids;
+}
+
+}  // namespace
+
+bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
+  const Stopwatch watch;
+  Frame& f = w.frame;
+  const auto observing = observing_keyframes(f, map);
+  if (observing.empty()) {
+    result.reason = "no map point tracked";
+    return false;
+  }
+  reference_keyframe_ = observing.front().first;
+  std::set<MapPointId> in_frame;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.map_points[i] == kNoMapPoint) continue;
+    if (MapPoint* p = map.point(f.map_points[i])) {
+      ++p->visible;
+      in_frame.insert(p->id);
+    }
+  }
+  const Eigen::Isometry3d T_cw = f.T_world_cam->inverse();
+  std::vector<ProjectedPoint> projected;
+  std::set<MapPointId> considered = in_frame;
+  std::vector<KeyframeId> local =
+      local_keyframes(observing, map, config_.local_neighbours_per_keyframe, config_.max_local_keyframes);
+  for (KeyframeId id : viewing_keyframes(map, component_, *f.T_world_cam, config_)) {
+    if (std::find(local.begin(), local.end(), id) == local.end()) local.push_back(id);
+  }
+  for (KeyframeId kf_id : local) {
+    for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
+      if (id == kNoMapPoint || !considered.insert(id).second) continue;
+      MapPoint* p = map.point(id);
+      if (p == nullptr) continue;
+      if (auto visible = project_map_point(*p, f, T_cw, config_.local_map)) {
+        ++p->visible;
+        projected.push_back(*visible);
+      }
+    }
+  }
+  const int found = search_by_projection(f, projected, map, config_.local_map);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.map_points[i] != kNoMapPoint) w.temporary[i].reset();  // a map point beats a temporary one
+  }
+  result.timings.local_map_ms += watch.elapsed_ms();
+
+  const int inliers = optimize(w, map, T_cw, result);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.map_points[i] == kNoMapPoint || f.outlier[i]) continue;
+    if (MapPoint* p = map.point(f.map_points[i])) ++p->found;
+  }
+  result.inliers = inliers;
+  logger_->debug("t={} local map: {} keyframes, {} points, {} visible, {} matched + {} from the frame stage, {} inliers",
+                 core::format_seconds(f.t_ns, 6), local.size(), considered.size() - in_frame.size(), projected.size(),
+                 found, in_frame.size(), inliers);
+  if (inliers < config_.min_local_map_inliers) {
+    result.reason = std::to_string(inliers) + " inliers after local map tracking, " +
+                    std::to_string(config_.min_local_map_inliers) + " needed";
+    return false;
+  }
+  return true;
+}
+
+void Tracker::decide_keyframe(Working& w, const Map& map, const TrackingInputs& inputs, TrackingResult& result) {
+  const Frame& f = w.frame;
+  const auto live = map.live_keyframe(reference_keyframe_);
+  if (!live) return;
+  const Keyframe& ref = *map.keyframe(live->first);
+  KeyframeContext c;
+  c.t_ns = f.t_ns;
+  c.last_keyframe_t_ns = last_keyframe_t_ns_;
+  c.frames_since_last_keyframe = frames_since_keyframe_;
+  for (const auto& entry : map.keyframes()) c.keyframes_in_map += entry.second.component == component_ ? 1 : 0;
+  c.tracked_inliers = result.inliers;
+
+  std::set<MapPointId> tracked;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.map_points[i] != kNoMapPoint && !f.outlier[i]) tracked.insert(f.map_points[i]);
+  }
+  const int min_observations = c.keyframes_in_map <= 2 ? 2 : 3;
+  for (MapPointId id : ref.frame.map_points) {
+    const MapPoint* p = id == kNoMapPoint ? nullptr : map.point(id);
+    if (p == nullptr || static_cast<int>(p->observations.size()) < min_observations) continue;
+    ++c.reference_points;
+    c.tracked_reference_points += tracked.count(id) > 0 ? 1 : 0;
+  }
+  const Eigen::Isometry3d T_ref_cur = ref.T_cam_world() * *f.T_world_cam;
+  c.translation_since_reference_m = T_ref_cur.translation().norm();
+  c.rotation_since_reference_rad = core::rotation_angle_rad(T_ref_cur.linear());
+  c.reference_median_depth_m = ref.median_depth(map);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth(i) || (f.close_depth_m > 0.0 && f.depth_m[i] > f.close_depth_m)) continue;
+    const bool is_tracked = f.map_points[i] != kNoMapPoint && !f.outlier[i];
+    (is_tracked ? c.close_tracked : c.close_untracked) += 1;
+  }
+  c.has_depth = f.bf > 0.0;
+  c.local_mapping_idle = inputs.local_mapping_idle;
+  c.fps = inputs.fps;
+
+  KeyframeDecision d = policy_->decide(c);
+  std::string factors;
+  for (const auto& [name, value] : d.factors) factors += " " + name + "=" + std::to_string(value);
+  logger_->debug("t={} keyframe {} ({}):{}", core::format_seconds(f.t_ns, 6), d.insert ? "yes" : "no", d.reason,
+                 factors);
+  result.insert_keyframe = d.insert;
+  result.context = c;
+  result.decision = std::move(d);
+}
+
+}  // namespace fleetslam::slam

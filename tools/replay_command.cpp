@@ -1,0 +1,329 @@
+// fleetslam replay: run one SLAM agent over a recorded sequence (TUM RGB-D, EuRoC, TUM-VI) and write
+// what it did to an output folder:
+//   trajectory.txt           every tracked frame, cam0, TUM format
+//   keyframes.txt            the keyframes left in the map, TUM format
+//   groundtruth.txt          the sequence's ground truth at the frames (when it has some)
+//   timings.csv              per frame: status, feature counts, stage timings
+//   keyframe_decisions.csv   per tracked frame: the keyframe policy's decision and its factors
+//   config.yaml              the effective agent config
+//   metrics.json             frame counts, timing statistics and (with ground truth) the ATE
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/logger.h>
+
+#include "commands.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/dataset.hpp"
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/core/orbslam_settings.hpp"
+#include "fleetslam/core/trajectory.hpp"
+#include "fleetslam/core/trajectory_metrics.hpp"
+#include "fleetslam/slam/agent.hpp"
+
+namespace fleetslam::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReplayOptions {
+  std::string dataset;
+  std::string format;  // empty: detect
+  std::string sensor;  // empty: the config's (default: the rig's mode)
+  std::string config;
+  std::string calibration;
+  std::string groundtruth;
+  std::string out = "replay_out";
+  std::int64_t max_frames = -1;
+};
+
+core::Logger make_cli_logger(const GlobalOptions& global) {
+  const core::LogLevel level =
+      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
+  return core::make_logger("replay", level);
+}
+
+// Defaults, then the ORB-SLAM settings file's ORB and close-depth values, then the config file.
+slam::AgentConfig agent_config(const ReplayOptions& o, const std::optional<core::OrbSlamSettings>& settings) {
+  slam::AgentConfig config;
+  if (settings) {
+    slam::OrbExtractorConfig& orb = config.frontend.orb;
+    orb.num_features = settings->orb.num_features;
+    orb.scale_factor = settings->orb.scale_factor;
+    orb.num_levels = settings->orb.num_levels;
+    orb.ini_fast_threshold = settings->orb.ini_fast_threshold;
+    orb.min_fast_threshold = settings->orb.min_fast_threshold;
+    if (settings->th_depth > 0.0) config.frontend.close_depth_baselines = settings->th_depth;
+  }
+  if (!o.config.empty()) {
+    core::ConfigReader reader = core::ConfigReader::from_file(o.config).section("");
+    config.visit(reader);
+    reader.finish();
+  }
+  if (o.sensor == "rgbd") config.sensor = slam::AgentSensor::kRgbd;
+  if (o.sensor == "stereo") config.sensor = slam::AgentSensor::kStereo;
+  return config;
+}
+
+std::unique_ptr<core::FrameSource> open_source(const ReplayOptions& o,
+                                               const std::optional<core::OrbSlamSettings>& settings,
+                                               const core::Logger& logger) {
+  core::DatasetConfig config;
+  config.groundtruth_file = o.groundtruth;
+  config.load_imu = false;  // the agent does not use the IMU yet
+  config.stereo = o.sensor != "rgbd";
+  if (o.max_frames >= 0) config.stop_index = o.max_frames;
+  if (settings) {
+    config.rig = settings->rig;
+    config.rig_source = o.calibration;
+  }
+  std::optional<core::DatasetFormat> format;
+  if (!o.format.empty()) format = core::dataset_format_from_string(o.format);
+  return core::open_dataset(o.dataset, format, config, logger);
+}
+
+// A bar redrawn in place on a terminal; a log line per 10 % otherwise.
+core::Progress make_progress(std::size_t frames, const core::Logger& logger) {
+  if (::isatty(::fileno(stderr)) == 0) return core::Progress("frames", frames, core::Progress::log_sink(logger));
+  const core::Progress::Sink bar = [](std::size_t done, std::size_t total, const std::string& label) {
+    constexpr std::size_t kWidth = 40;
+    const std::size_t filled = total > 0 ? std::min(kWidth, done * kWidth / total) : kWidth;
+    std::cerr << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, ' ') << "] " << done << "/"
+              << total << " " << label << (done >= total ? "\n" : "") << std::flush;
+  };
+  return core::Progress("frames", frames, bar, core::Progress::Config{0.01});
+}
+
+std::string csv_text(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+std::string number(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.4f", value);
+  return buffer;
+}
+
+// Per-frame rows of timings.csv and keyframe_decisions.csv, built while the run goes.
+class RunLog {
+ public:
+  void add(const slam::AgentUpdate& u) {
+    const slam::AgentTimings& t = u.timings;
+    timings_ += std::to_string(u.sequence) + "," + core::format_seconds(u.t_ns, 6) + "," + slam::to_string(u.status) +
+                "," + std::to_string(u.features) + "," + std::to_string(u.features_with_depth) + "," +
+                std::to_string(u.inliers) + "," + number(t.extract_ms) + "," + number(t.match_ms) + "," +
+                number(t.pose_ms) + "," + number(t.local_map_ms) + "," + number(t.tracking_ms) + "," +
+                number(t.mapping_ms) + "," + number(t.total_ms) + "\n";
+    ++status_counts_[slam::to_string(u.status)];
+    if (u.status == slam::FrameStatus::kTracked || u.status == slam::FrameStatus::kInitialized) {
+      tracking_ms_.push_back(t.tracking_ms);
+      total_ms_.push_back(t.total_ms);
+    }
+    if (u.keyframe_decision) add_decision(u);
+  }
+
+  void write(const fs::path& out) const {
+    write_text(out / "timings.csv",
+               "sequence,t_s,status,features,features_with_depth,inliers,extract_ms,match_ms,pose_ms,local_map_ms,"
+               "tracking_ms,mapping_ms,total_ms\n" + timings_);
+    std::string header = "sequence,t_s,insert,score,reason";
+    for (const std::string& name : factor_names_) header += "," + name;
+    write_text(out / "keyframe_decisions.csv", header + "\n" + decisions_);
+  }
+
+  const std::map<std::string, int>& status_counts() const { return status_counts_; }
+  const std::vector<double>& tracking_ms() const { return tracking_ms_; }
+  const std::vector<double>& total_ms() const { return total_ms_; }
+
+  static void write_text(const fs::path& path, const std::string& text) {
+    std::ofstream file(path, std::ios::binary | std::ios::trunc);
+    if (!file) throw InputError(path.string(), "cannot open the file for writing");
+    file << text;
+    if (!file.flush()) throw InputError(path.string(), "write failed");
+  }
+
+ private:
+  void add_decision(const slam::AgentUpdate& u) {
+    const slam::KeyframeDecision& d = *u.keyframe_decision;
+    if (factor_names_.empty()) {
+      for (const auto& factor : d.factors) factor_names_.push_back(factor.first);
+    }
+    decisions_ += std::to_string(u.sequence) + "," + core::format_seconds(u.t_ns, 6) + "," +
+                  (d.insert ? "1" : "0") + "," + number(d.score) + "," + csv_text(d.reason);
+    for (const std::string& name : factor_names_) {
+      const auto it = std::find_if(d.factors.begin(), d.factors.end(), [&](const auto& f) { return f.first == name; });
+      decisions_ += "," + (it == d.factors.end() ? std::string() : number(it->second));
+    }
+    decisions_ += "\n";
+  }
+
+  std::string timings_;
+  std::string decisions_;
+  std::vector<std::string> factor_names_;
+  std::map<std::string, int> status_counts_;
+  std::vector<double> tracking_ms_;
+  std::vector<double> total_ms_;
+};
+
+// The ground truth to score against: the dataset's (or the given) camera-pose file as it is, as the
+// TUM tools do; the per-frame (interpolated) poses when the file holds body poses (EuRoC's own).
+core::Trajectory groundtruth(const ReplayOptions& o, const core::FrameSource& source,
+                             const core::Trajectory& per_frame, std::string& used) {
+  const std::string& file = source.info().groundtruth_file;
+  const bool camera_poses = !o.groundtruth.empty() || source.info().format == core::DatasetFormat::kTumRgbd;
+  if (!file.empty() && camera_poses) {
+    used = file;
+    core::TrajectoryReadOptions options;
+    options.duplicate_stamps = core::DuplicateStamps::kKeepLast;
+    return core::read_trajectory_file(file, options).trajectory;
+  }
+  used = "per-frame ground truth of the dataset reader";
+  return per_frame;
+}
+
+nlohmann::json stats_json(std::vector<double> values) {
+  if (values.empty()) return nullptr;
+  std::sort(values.begin(), values.end());
+  double sum = 0.0;
+  for (double v : values) sum += v;
+  const auto at = [&](double q) { return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1))]; };
+  return {{"count", values.size()}, {"mean", sum / static_cast<double>(values.size())}, {"median", at(0.5)},
+          {"p90", at(0.9)}, {"max", values.back()}};
+}
+
+struct RunResult {
+  core::Trajectory estimate;
+  core::Trajectory keyframes;
+  core::Trajectory per_frame_groundtruth;
+  slam::MapStats map;
+  RunLog log;
+  std::size_t frames = 0;
+};
+
+RunResult run_agent(slam::Agent& agent, core::FrameSource& source, const core::Logger& logger) {
+  RunResult run;
+  core::Progress progress = make_progress(source.size(), logger);
+  while (std::optional<core::SensorFrame> frame = source.next()) {
+    const slam::AgentUpdate update = agent.process(*frame);
+    run.log.add(update);
+    if (frame->T_world_cam_gt) run.per_frame_groundtruth.push_back({frame->t_ns, *frame->T_world_cam_gt});
+    progress.update(++run.frames);
+  }
+  progress.finish();
+  agent.finish();
+  run.estimate = agent.trajectory();
+  run.keyframes = agent.keyframe_trajectory();
+  run.map = agent.map_stats();
+  return run;
+}
+
+nlohmann::json ate_json(const core::AteResult& ate, const std::string& gt_source) {
+  const core::ErrorStats& s = ate.stats;
+  return {{"groundtruth", gt_source}, {"pairs", ate.pairs.size()}, {"alignment", "se3"},
+          {"alignment_status", core::to_string(ate.alignment.status)},
+          {"ate_m", {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"std", s.std}, {"min", s.min},
+                     {"max", s.max}}}};
+}
+
+void print_summary(const RunResult& run, const std::optional<core::AteResult>& ate, const fs::path& out) {
+  std::printf("frames:       %zu (", run.frames);
+  bool first = true;
+  for (const auto& [status, count] : run.log.status_counts()) {
+    std::printf("%s%s %d", first ? "" : ", ", status.c_str(), count);
+    first = false;
+  }
+  std::printf(")\nmap:          %zu keyframes, %zu points, %d component(s)\n", run.map.keyframes, run.map.points,
+              run.map.components);
+  const nlohmann::json tracking = stats_json(run.log.tracking_ms());
+  if (!tracking.is_null()) {
+    std::printf("tracking:     median %.1f ms, p90 %.1f ms per frame\n", tracking["median"].get<double>(),
+                tracking["p90"].get<double>());
+  }
+  if (ate) {
+    std::printf("ATE RMSE:     %.4f m (%zu pairs, se3 alignment)\n", ate->stats.rmse, ate->pairs.size());
+  }
+  std::printf("wrote:        %s/{trajectory.txt,keyframes.txt,timings.csv,keyframe_decisions.csv,config.yaml,"
+              "metrics.json}\n",
+              out.string().c_str());
+}
+
+void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
+  const core::Logger logger = make_cli_logger(global);
+  std::optional<core::OrbSlamSettings> settings;
+  if (!o.calibration.empty()) settings = core::read_orbslam_settings(o.calibration);
+  const slam::AgentConfig config = agent_config(o, settings);
+  std::unique_ptr<core::FrameSource> source = open_source(o, settings, logger);
+  const fs::path out = o.out;
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
+  RunLog::write_text(out / "config.yaml", core::config_to_yaml(config));
+
+  slam::Agent agent(config, source->rig(), logger);
+  RunResult run = run_agent(agent, *source, logger);
+  core::write_trajectory(out / "trajectory.txt", run.estimate, core::TrajectoryFormat::kTum);
+  core::write_trajectory(out / "keyframes.txt", run.keyframes, core::TrajectoryFormat::kTum);
+  run.log.write(out);
+
+  nlohmann::json metrics = {{"command", "fleetslam replay"}, {"dataset", o.dataset},
+                            {"frames", run.frames}, {"status_counts", run.log.status_counts()},
+                            {"keyframes", run.map.keyframes}, {"map_points", run.map.points},
+                            {"components", run.map.components},
+                            {"tracking_ms", stats_json(run.log.tracking_ms())},
+                            {"total_ms", stats_json(run.log.total_ms())}};
+  std::optional<core::AteResult> ate;
+  if (!run.per_frame_groundtruth.empty()) {
+    core::write_trajectory(out / "groundtruth.txt", run.per_frame_groundtruth, core::TrajectoryFormat::kTum);
+    std::string gt_source;
+    const core::Trajectory gt = groundtruth(o, *source, run.per_frame_groundtruth, gt_source);
+    ate = core::compute_ate(gt, run.estimate, core::associate_by_time(gt, run.estimate), core::AlignmentMode::kSe3);
+    if (ate->ok()) {
+      metrics["ate"] = ate_json(*ate, gt_source);
+    } else {
+      logger->warn("no ATE: {} estimated poses paired with the ground truth", ate->pairs.size());
+      ate.reset();
+    }
+  }
+  RunLog::write_text(out / "metrics.json", metrics.dump(2) + "\n");
+  if (!global.quiet) print_summary(run, ate, out);
+}
+
+}  // namespace
+
+void add_replay_command(CLI::App& app, const GlobalOptions& global) {
+  auto options = std::make_shared<ReplayOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "Run one SLAM agent over a recorded sequence; write its trajectory, keyframes, timings, keyframe "
+                "decisions, effective config and (with ground truth) the ATE to --out");
+  cmd->add_option("dataset", options->dataset, "Sequence folder (TUM RGB-D, EuRoC or TUM-VI layout)")->required();
+  cmd->add_option("--format", options->format, "Dataset layout (default: detected)")
+      ->check(CLI::IsMember({"tum_rgbd", "euroc", "tumvi"}));
+  cmd->add_option("--sensor", options->sensor, "Sensors to use (default: the rig's mode)")
+      ->check(CLI::IsMember({"rgbd", "stereo"}));
+  cmd->add_option("--config", options->config, "Agent config YAML (see config.yaml of any run for every key)");
+  cmd->add_option("--calibration", options->calibration,
+                  "Camera settings in the ORB-SLAM format (cameras, ORBextractor, ThDepth)");
+  cmd->add_option("--groundtruth", options->groundtruth, "Ground-truth camera poses to use instead of the dataset's");
+  cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
+  cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
+      ->check(CLI::NonNegativeNumber);
+  cmd->callback([options, &global] { run_replay(*options, global); });
+}
+
+}  // namespace fleetslam::tools
