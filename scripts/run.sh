@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job. Until the closed-loop scenario exists this is the furthest pipeline that works:
-# stream the real TUM RGB-D and EuRoC sequences through the dataset readers, and evaluate real SLAM
-# trajectories against ground truth (ATE/RPE, metrics.json and an SVG plot) under out/.
+# stream the real TUM RGB-D and EuRoC sequences through the dataset readers, run one SLAM agent over the
+# real TUM RGB-D excerpt (trajectory, keyframes, timings, ATE), evaluate its trajectory and real
+# reference trajectories against ground truth (metrics.json and SVG plots), and generate a short
+# synthetic sequence from the office scene, all under out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh release
@@ -16,6 +18,11 @@ fi
 "$cli" dataset info "$data/tum/rgbd_dataset_freiburg1_rpy_200"
 "$cli" dataset info "$data/euroc/V1_01_easy_micro" \
   --groundtruth "$data/euroc/V1_01_easy_micro/groundtruth_leftcam_tum.txt"
+rm -rf "$out/replay_tum_fr1_rpy" "$out/office_tum"
+"$cli" replay "$data/tum/rgbd_dataset_freiburg1_rpy_200" --out "$out/replay_tum_fr1_rpy"
+"$cli" eval --gt "$data/tum/rgbd_dataset_freiburg1_rpy_200/groundtruth.txt" \
+  --est "$out/replay_tum_fr1_rpy/trajectory.txt" --out "$out/replay_tum_fr1_rpy/eval"
+"$cli" generate scenes/office/office_2robots.yaml --format tum --duration 5 --out "$out/office_tum"
 "$cli" eval --gt "$data/trajectories/fr2_desk_groundtruth.txt" --est "$data/trajectories/fr2_desk_ORB.txt" \
   --align se3 --out "$out/eval_fr2_desk_orb"
 "$cli" eval --gt "$data/trajectories/freiburg1_xyz-groundtruth.txt" --est "$data/trajectories/freiburg1_xyz-ORB_kf_mono.txt" \
