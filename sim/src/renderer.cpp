@@ -2,14 +2,48 @@
 
 #include <GL/osmesa.h>
 
+#include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc/hal/hal.hpp>
 
 #include "fleetslam/core/error.hpp"
 
 namespace fleetslam::sim::detail {
+namespace {
+
+// a where c, else b, as a bitwise select: unlike ?:, it keeps linearize_row free of branches for the
+// vectoriser (GCC will not evaluate a division that only one branch needs on both).
+float select(bool c, float a, float b) {
+  std::uint32_t a_bits, b_bits;
+  std::memcpy(&a_bits, &a, sizeof a);
+  std::memcpy(&b_bits, &b, sizeof b);
+  const std::uint32_t mask = 0u - static_cast<std::uint32_t>(c);
+  const std::uint32_t bits = (a_bits & mask) | (b_bits & ~mask);
+  float r;
+  std::memcpy(&r, &bits, sizeof r);
+  return r;
+}
+
+// Depth from z-buffer values d: near far / (far - d (far - near)) = 1 / (1/far + (1 - d)(1/near - 1/far)).
+// The second form in float is well conditioned (1 - d is exact for d >= 0.5, every other step adds a
+// relative error of at most half an ulp): within 3 ulp (2.5e-7 relative, 3 um below 20 m) of the first
+// in double for every 24-bit z-buffer value; sim_test_world checks depth against analytic planes.
+// d == 1 is the far plane: nothing was hit, depth 0. The loop vectorises, with an AVX2 clone where GCC
+// dispatches at load time (the same values: no fused multiply-add).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void linearize_row(const float* d, std::size_t n, float inv_far, float inv_near_minus_inv_far, float* depth_m) {
+  for (std::size_t i = 0; i < n; ++i) {
+    depth_m[i] = select(d[i] < 1.0f, 1.0f / (inv_far + inv_near_minus_inv_far * (1.0f - d[i])), 0.0f);
+  }
+}
+
+}  // namespace
 
 struct Renderer::Impl {
   OSMesaContext gl = nullptr;
@@ -73,33 +107,27 @@ void Renderer::render(const mjModel* model, mjData* data, int camera_id, int wid
   mjr_readPixels(impl_->rgb.data(), options.want_depth ? impl_->zbuffer.data() : nullptr, viewport,
                  &impl_->context);
 
-  // Rows come bottom-up; flip to top-down and RGB -> BGR.
+  // Rows come bottom-up: output row r is input row height - 1 - r, RGB -> BGR by one SIMD call per
+  // row (hal::cvtBGRtoBGR dispatches to the CPU's widest instructions, and a single row stays on this
+  // thread).
   *bgr = cv::Mat(height, width, CV_8UC3);
+  const std::size_t rgb_step = static_cast<std::size_t>(width) * 3;
   for (int row = 0; row < height; ++row) {
-    const unsigned char* src = impl_->rgb.data() + static_cast<std::size_t>(height - 1 - row) * width * 3;
-    auto* dst = bgr->ptr<unsigned char>(row);
-    for (int col = 0; col < width; ++col) {
-      dst[3 * col + 0] = src[3 * col + 2];
-      dst[3 * col + 1] = src[3 * col + 1];
-      dst[3 * col + 2] = src[3 * col + 0];
-    }
+    const unsigned char* src = impl_->rgb.data() + static_cast<std::size_t>(height - 1 - row) * rgb_step;
+    cv::hal::cvtBGRtoBGR(src, rgb_step, bgr->ptr<unsigned char>(row), bgr->step[0], width, 1, CV_8U, 3, 3, true);
   }
   if (!options.want_depth || depth_m == nullptr) {
     if (depth_m != nullptr) *depth_m = cv::Mat();
     return;
   }
-  // Linearise the z-buffer: depth = near * far / (far - d * (far - near)) (checked against ray casts
-  // to micrometres, DESIGN.md). d == 1 is the far plane: nothing was hit.
-  const double near_m = impl_->near_m;
-  const double far_m = impl_->far_m;
+  // Linearise the z-buffer (see linearize_row).
+  const auto inv_far = static_cast<float>(1.0 / impl_->far_m);
+  const auto inv_near_minus_inv_far = static_cast<float>(1.0 / impl_->near_m - 1.0 / impl_->far_m);
   *depth_m = cv::Mat(height, width, CV_32FC1);
   for (int row = 0; row < height; ++row) {
-    const float* src = impl_->zbuffer.data() + static_cast<std::size_t>(height - 1 - row) * width;
-    auto* dst = depth_m->ptr<float>(row);
-    for (int col = 0; col < width; ++col) {
-      const double d = static_cast<double>(src[col]);
-      dst[col] = d >= 1.0 ? 0.0f : static_cast<float>(near_m * far_m / (far_m - d * (far_m - near_m)));
-    }
+    const float* src =
+        impl_->zbuffer.data() + static_cast<std::size_t>(height - 1 - row) * static_cast<std::size_t>(width);
+    linearize_row(src, static_cast<std::size_t>(width), inv_far, inv_near_minus_inv_far, depth_m->ptr<float>(row));
   }
 }
 
