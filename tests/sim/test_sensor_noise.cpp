@@ -1,17 +1,20 @@
 // Depth and image noise models on synthetic images with known geometry: axial noise against
 // sigma_z(z) of Nguyen et al. 2012 on fronto-parallel planes, the valid range, grazing dropout against
-// the analytic incidence angle of a floor, dropout near a depth step, intensity noise and saturation,
-// the exposure process, repeatability from the seed, and the cost of a 640x480 frame.
+// the analytic incidence angle of a floor, dropout near a depth step, all dropout against a plain
+// per-pixel reference on a cluttered scene, intensity noise and saturation (also under exposure
+// changes), the exposure process, repeatability from the seed, and the cost of a 640x480 frame.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "fleetslam/sim/sensor_noise.hpp"
 
@@ -97,6 +100,12 @@ TEST(DepthNoise, OutOfRangeDepthIsDropped) {
   EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 0.0f), camera)), 0);
   EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, std::nanf("")), camera)), 0);
   EXPECT_EQ(cv::countNonZero(model.apply(constant_depth(camera, 3.0f), camera)), camera.width() * camera.height());
+
+  // Holes are never measured, even when the range starts at 0.
+  DepthNoiseConfig from_zero;
+  from_zero.min_depth_m = 0.0;
+  DepthNoiseModel from_zero_model(from_zero, 2);
+  EXPECT_EQ(cv::countNonZero(from_zero_model.apply(constant_depth(camera, 0.0f), camera)), 0);
 }
 
 TEST(DepthNoise, FrontoParallelPlaneIsKept) {
@@ -179,6 +188,138 @@ TEST(DepthNoise, EdgeDropoutHasItsProbability) {
   EXPECT_NEAR(band_kept, 0.5, 0.05);
   EXPECT_DOUBLE_EQ(kept[316], 1.0);
   EXPECT_DOUBLE_EQ(kept[323], 1.0);
+}
+
+// A scene with every case the dropout handles: a floor seen at grazing incidence, a box and a
+// slanted wall (depth edges, one-sided normals), holes of every kind and depths out of range.
+cv::Mat cluttered_depth(const core::PinholeCamera& camera) {
+  cv::Mat depth = floor_depth(camera, 0.5);
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      float& z = depth.at<float>(v, u);
+      if (u >= 100 && u < 220 && v >= 150 && v < 330) z = 1.5f + 0.002f * static_cast<float>(u - 100);  // box
+      if (u >= 400 && v < 300) z = 2.0f + 0.05f * static_cast<float>(u - 400);  // wall turning away
+      if (u >= 440 && v >= 330) z = 1.0f + 0.3f * static_cast<float>((u / 20 + v / 20) % 2);  // steps
+      if (u >= 300 && u < 330 && v >= 60 && v < 90) z = 0.0f;                     // holes
+      if (u >= 330 && u < 340 && v >= 60 && v < 90) z = std::nanf("");
+      if (u >= 340 && u < 350 && v >= 60 && v < 90) z = std::numeric_limits<float>::infinity();
+      if (u >= 350 && u < 360 && v >= 60 && v < 90) z = -1.0f;
+      if (u >= 360 && u < 370 && v >= 60 && v < 90) z = 0.1f;                     // too near
+      if (u >= 250 && u < 280 && v >= 400) z = 9.5f;                              // too far
+    }
+  }
+  return depth;
+}
+
+// The dropout model written plainly, per pixel (no noise): 1 where a pixel is kept.
+cv::Mat reference_keep(const cv::Mat& depth, const core::PinholeCamera& camera, const DepthNoiseConfig& config,
+                       bool drop_band) {
+  const auto valid = [](float z) { return z > 0.0f && z < std::numeric_limits<float>::infinity(); };
+  const auto at = [&](int v, int u) {
+    return v >= 0 && v < depth.rows && u >= 0 && u < depth.cols ? depth.at<float>(v, u) : 0.0f;
+  };
+  const auto jump_m = static_cast<float>(config.edge_jump_m);
+  cv::Mat edges(depth.size(), CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float z = at(v, u);
+      for (const float n : {at(v, u - 1), at(v, u + 1), at(v - 1, u), at(v + 1, u)}) {
+        if (valid(z) && valid(n) && std::abs(n - z) > jump_m) edges.at<std::uint8_t>(v, u) = 1;
+      }
+    }
+  }
+  cv::Mat band;
+  const int b = config.edge_band_px;
+  cv::dilate(edges, band, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * b + 1, 2 * b + 1)));
+  // Depth change per pixel: central where both neighbours continue the surface, else towards the
+  // valid neighbour nearer in depth; none without a valid neighbour.
+  const auto slope = [&](float z, float prev, float next, float* dz) {
+    const float inf = std::numeric_limits<float>::infinity();
+    const float jump_prev = valid(prev) ? std::abs(prev - z) : inf;
+    const float jump_next = valid(next) ? std::abs(next - z) : inf;
+    if (jump_prev == inf && jump_next == inf) return false;
+    if (jump_prev <= jump_m && jump_next <= jump_m) {
+      *dz = 0.5f * (next - prev);
+    } else {
+      *dz = jump_prev < jump_next ? z - prev : next - z;
+    }
+    return true;
+  };
+  const double c = std::cos(config.grazing_dropout_deg * kPi / 180.0);
+  const auto min_cos_sq = static_cast<float>(c * c);
+  cv::Mat keep(depth.size(), CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float z = at(v, u);
+      if (!valid(z) || !(z >= static_cast<float>(config.min_depth_m) && z <= static_cast<float>(config.max_depth_m))) {
+        continue;
+      }
+      if (drop_band && band.at<std::uint8_t>(v, u) != 0) continue;
+      float z_u = 0.0f, z_v = 0.0f;
+      if (slope(z, at(v, u - 1), at(v, u + 1), &z_u) && slope(z, at(v - 1, u), at(v + 1, u), &z_v)) {
+        const auto xn = static_cast<float>((u - camera.cx()) / camera.fx());
+        const auto yn = static_cast<float>((v - camera.cy()) / camera.fy());
+        const float gx = static_cast<float>(camera.fx()) * z_u;
+        const float gy = static_cast<float>(camera.fy()) * z_v;
+        const float nz = gx * xn + gy * yn + z;
+        if (z * z < min_cos_sq * (gx * gx + gy * gy + nz * nz) * (xn * xn + yn * yn + 1.0f)) continue;
+      }
+      keep.at<std::uint8_t>(v, u) = 1;
+    }
+  }
+  return keep;
+}
+
+TEST(DepthNoise, DropoutMatchesAPlainReference) {
+  const core::PinholeCamera camera = vga_camera();
+  const cv::Mat truth = cluttered_depth(camera);
+  DepthNoiseConfig config;
+  config.sigma_base_m = 0.0;  // no noise: kept pixels keep their depth exactly
+  config.sigma_quadratic = 0.0;
+  config.edge_band_px = 2;
+  for (double probability : {0.0, 1.0}) {
+    config.edge_dropout_probability = probability;
+    DepthNoiseModel model(config, 7);
+    const cv::Mat noisy = model.apply(truth, camera);
+    const cv::Mat expected = reference_keep(truth, camera, config, probability > 0.0);
+    int mismatches = 0, kept = 0;
+    for (int v = 0; v < truth.rows; ++v) {
+      for (int u = 0; u < truth.cols; ++u) {
+        const bool keep = expected.at<std::uint8_t>(v, u) != 0;
+        kept += keep ? 1 : 0;
+        const float want = keep ? truth.at<float>(v, u) : 0.0f;
+        if (noisy.at<float>(v, u) != want) ++mismatches;
+      }
+    }
+    std::printf("edge probability %.0f: %d kept, %d mismatches\n", probability, kept, mismatches);
+    EXPECT_EQ(mismatches, 0) << "edge probability " << probability;
+    EXPECT_GT(kept, truth.rows * truth.cols / 4);
+    EXPECT_LT(kept, truth.rows * truth.cols * 3 / 4);
+  }
+
+  // In between, band pixels that survive everything else are dropped with the probability.
+  config.edge_dropout_probability = 0.3;
+  DepthNoiseModel model(config, 8);
+  const cv::Mat noisy = model.apply(truth, camera);
+  const cv::Mat all = reference_keep(truth, camera, config, false);
+  const cv::Mat outside_band = reference_keep(truth, camera, config, true);
+  int band_pixels = 0, band_kept = 0, wrong = 0;
+  for (int v = 0; v < truth.rows; ++v) {
+    for (int u = 0; u < truth.cols; ++u) {
+      const bool kept = noisy.at<float>(v, u) != 0.0f;
+      if (all.at<std::uint8_t>(v, u) != 0 && outside_band.at<std::uint8_t>(v, u) == 0) {
+        ++band_pixels;
+        band_kept += kept ? 1 : 0;
+      } else if (kept != (all.at<std::uint8_t>(v, u) != 0)) {
+        ++wrong;
+      }
+    }
+  }
+  const double kept_fraction = band_kept / static_cast<double>(band_pixels);
+  std::printf("edge probability 0.3: %d of %d band pixels kept (%.4f)\n", band_kept, band_pixels, kept_fraction);
+  EXPECT_EQ(wrong, 0);
+  ASSERT_GT(band_pixels, 2000);
+  EXPECT_NEAR(kept_fraction, 0.7, 5.0 * std::sqrt(0.21 / band_pixels));
 }
 
 TEST(DepthNoise, SameSeedSameImageAndDisabledIsACopy) {
@@ -285,6 +426,42 @@ TEST(ImageNoise, ExposureGainIsAStationaryLogNormalProcess) {
   steady.apply(clean, 0);
   steady.apply(clean, 10 * kFrameNs);
   EXPECT_EQ(steady.current_gain(), 1.0);
+}
+
+// With exposure changes the gain is rarely 1: noise on top of the scaled intensity, then rounding.
+TEST(ImageNoise, IntensityNoiseWithExposureChanges) {
+  ImageNoiseConfig config;
+  config.exposure_changes = true;
+  ImageNoiseModel model(config, 5);
+  const cv::Mat clean(480, 640, CV_8UC3, cv::Scalar::all(100));
+  double sum = 0.0, sum_sq = 0.0;
+  long count = 0;
+  for (int k = 0; k < 10; ++k) {
+    const cv::Mat noisy = model.apply(clean, k * core::kNsPerSecond);
+    const double scaled = static_cast<float>(model.current_gain() * 100.0);
+    for (int v = 0; v < noisy.rows; ++v) {
+      for (int u = 0; u < noisy.cols * 3; ++u) {
+        const double e = noisy.at<std::uint8_t>(v, u) - scaled;
+        sum += e;
+        sum_sq += e * e;
+        ++count;
+      }
+    }
+  }
+  const double mean = sum / static_cast<double>(count);
+  const double std = std::sqrt(sum_sq / static_cast<double>(count) - mean * mean);
+  const double expected = std::sqrt(2.0 * 2.0 + 1.0 / 12.0);
+  std::printf("intensity noise with exposure changes: std %.4f, expected %.4f, mean %+.4f\n", std, expected, mean);
+  EXPECT_NEAR(model.current_gain(), 1.0, 0.8);
+  EXPECT_NE(model.current_gain(), 1.0);
+  EXPECT_NEAR(std / expected, 1.0, 0.02);
+  EXPECT_LT(std::abs(mean), 0.02);
+
+  ImageNoiseModel a(config, 6), b(config, 6);
+  for (int k = 0; k < 3; ++k) {
+    const core::TimeNs t_ns = k * core::kNsPerSecond;
+    EXPECT_EQ(cv::norm(a.apply(clean, t_ns), b.apply(clean, t_ns), cv::NORM_INF), 0.0);
+  }
 }
 
 TEST(ImageNoise, SameSeedSameImageAndDisabledIsACopy) {
