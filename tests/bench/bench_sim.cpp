@@ -1,19 +1,26 @@
 // Camera frames per second of the simulator's full sensor pipeline (physics between ticks, RGB +
 // metric depth, image and depth noise, IMU, ground truth) against bare mjr_render + mjr_readPixels of
-// the same scene and camera. Usage:
+// the same scene and camera, and the noise models alone on one rendered frame. Usage:
 //   bench_sim [--scenario scenes/office/office_2robots.yaml] [google-benchmark flags]
 // The first robot's camera is measured; its resolution is the scenario's (override: --width/--height).
+// Time is wall time (llvmpipe renders on its own threads); CPU is the main thread's, so the pipeline's
+// CPU minus the bare render's is the sensor pipeline's own cost. On a shared machine run with
+// --benchmark_repetitions=5: the "_min" rows are the best estimates of the undisturbed costs.
 
 #include <GL/osmesa.h>
 #include <benchmark/benchmark.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 #include "fleetslam/sim/scenario.hpp"
+#include "fleetslam/sim/sensor_noise.hpp"
 #include "fleetslam/sim/world.hpp"
 
 namespace {
@@ -32,6 +39,8 @@ fleetslam::sim::ScenarioConfig one_robot_scenario(bool noise = true) {
   scenario.duration_s = 1e5;
   return scenario;
 }
+
+double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
 // The full pipeline: World::step() renders one frame per call (one robot); range(0) = noise models on.
 void BM_SensorPipeline(benchmark::State& state) {
@@ -108,11 +117,61 @@ void BM_BareRender(benchmark::State& state) {
   mj_deleteModel(m);
 }
 
+// The first frame of the first robot's camera without noise, and its intrinsics.
+struct CleanFrame {
+  cv::Mat bgr;
+  cv::Mat depth_m;
+  fleetslam::core::PinholeCamera camera;
+};
+
+const CleanFrame& clean_frame() {
+  static const CleanFrame frame = [] {
+    fleetslam::sim::World world(one_robot_scenario(false), nullptr);
+    const auto frames = world.step();
+    return CleanFrame{frames.at(0).image, frames.at(0).depth_m, world.sensor_rig(0).cam0};
+  }();
+  return frame;
+}
+
+// The noise models alone on a rendered frame, with the scenario's settings (main thread only).
+void BM_DepthNoise(benchmark::State& state) {
+  const CleanFrame& frame = clean_frame();
+  if (frame.depth_m.empty()) {
+    state.SkipWithError("the scenario's first camera has no depth");
+    return;
+  }
+  fleetslam::sim::DepthNoiseModel model(one_robot_scenario().robots[0].camera.depth_noise, 1);
+  for (auto _ : state) {
+    cv::Mat noisy = model.apply(frame.depth_m, frame.camera);
+    benchmark::DoNotOptimize(noisy.data);
+  }
+}
+
+void BM_ImageNoise(benchmark::State& state) {
+  const CleanFrame& frame = clean_frame();
+  fleetslam::sim::ImageNoiseModel model(one_robot_scenario().robots[0].camera.image_noise, 1);
+  fleetslam::core::TimeNs t_ns = 0;
+  for (auto _ : state) {
+    cv::Mat noisy = model.apply(frame.bgr, t_ns);
+    benchmark::DoNotOptimize(noisy.data);
+    t_ns += 33'333'333;
+  }
+}
+
 }  // namespace
 
 // Real time: llvmpipe renders on its own threads, which the main thread's CPU time does not see.
-BENCHMARK(BM_BareRender)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime();
-BENCHMARK(BM_SensorPipeline)->ArgName("noise")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime();
+BENCHMARK(BM_BareRender)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime()->ComputeStatistics("min", min_of);
+BENCHMARK(BM_SensorPipeline)
+    ->ArgName("noise")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(3.0)
+    ->UseRealTime()
+    ->ComputeStatistics("min", min_of);
+BENCHMARK(BM_DepthNoise)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", min_of);
+BENCHMARK(BM_ImageNoise)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", min_of);
 
 int main(int argc, char** argv) {
   std::vector<char*> rest;
