@@ -15,20 +15,6 @@ namespace {
 // calibrated radial distortion between two samples stays far below a pixel.
 constexpr int kBorderSampleStepPx = 4;
 
-// Inclusive range [first, last] of cells that [lo, hi] overlaps along one axis, clamped to the grid;
-// first > last when it misses the grid.
-struct CellRange {
-  int first = 0;
-  int last = -1;
-};
-
-CellRange overlapping_cells(double lo, double hi, double origin, double cell_size, int count) {
-  const double first = std::floor((lo - origin) / cell_size);
-  const double last = std::floor((hi - origin) / cell_size);
-  if (last < 0.0 || first >= count) return {};
-  return {static_cast<int>(std::max(first, 0.0)), static_cast<int>(std::min(last, count - 1.0))};
-}
-
 ImageBounds bounding_box(const std::vector<Eigen::Vector2d>& uv) {
   ImageBounds box{std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest(),
                   std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest()};
@@ -121,7 +107,7 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
     ++cell_start_[static_cast<std::size_t>(cell_of[i]) + 1];
   }
   for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
-  indices_.resize(static_cast<std::size_t>(cell_start_[cells]));
+  indices_.assign(static_cast<std::size_t>(cell_start_[cells]) + kGatherSlice, 0);
   std::vector<int> next(cell_start_.begin(), cell_start_.end() - 1);
   for (std::size_t i = 0; i < uv.size(); ++i) {
     if (cell_of[i] < 0) continue;
@@ -141,46 +127,31 @@ std::vector<int> FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d
 std::size_t FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
                                           double u, double v, double radius_px, int min_level, int max_level,
                                           std::vector<int>& found) const {
-  if (cell_start_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return 0;
+  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  if (!query_cells(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1)) return 0;
+  // Room for every scanned feature (cells x0 .. x1 of a row are one slice of indices_), then each one
+  // written and kept when it passes, without branching on it.
+  std::size_t scanned = 0;
+  for (int y = y0; y <= y1; ++y) {
+    const int* const row = cell_start_.data() + static_cast<std::ptrdiff_t>(y) * cols_;
+    scanned += static_cast<std::size_t>(row[x1 + 1] - row[x0]);
+  }
+  if (scanned == 0) return 0;
   const std::size_t before = found.size();
+  found.resize(before + scanned);
+  int* const out = found.data() + before;
+  std::size_t kept = 0;
+  const auto keep = [&](int i, bool in_area) {
+    out[kept] = i;
+    kept += static_cast<std::size_t>(in_area);
+  };
   if (min_level >= 0 || max_level >= 0) {
-    FLEETSLAM_CHECK(level.size() == uv.size(), "level bounds need one level per feature");
-    append_in_area<true>(uv, level, u, v, radius_px, min_level, max_level, found);
+    scan_cells<true>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, keep);
   } else {
-    append_in_area<false>(uv, level, u, v, radius_px, min_level, max_level, found);
+    scan_cells<false>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, keep);
   }
-  return found.size() - before;
-}
-
-template <bool kCheckLevel>
-void FeatureGrid::append_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
-                                 double v, double radius_px, int min_level, int max_level,
-                                 std::vector<int>& found) const {
-  const CellRange cx = overlapping_cells(u - radius_px, u + radius_px, min_u_, cell_w_, cols_);
-  if (cx.first > cx.last) return;
-  const CellRange cy = overlapping_cells(v - radius_px, v + radius_px, min_v_, cell_h_, rows_);
-  // An unbounded side of the level window becomes a bound every level meets.
-  const int lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
-  const int highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
-  const double r2 = radius_px * radius_px;
-  const std::size_t size = uv.size();
-  const Eigen::Vector2d* points = uv.data();
-  const int* levels = level.data();
-  const int* indices = indices_.data();
-  for (int y = cy.first; y <= cy.last; ++y) {
-    // Cells x = cx.first .. cx.last of row y are one contiguous slice of indices_.
-    const std::size_t row = static_cast<std::size_t>(y) * static_cast<std::size_t>(cols_);
-    const int end = cell_start_[row + static_cast<std::size_t>(cx.last) + 1];
-    for (int j = cell_start_[row + static_cast<std::size_t>(cx.first)]; j < end; ++j) {
-      const int i = indices[j];
-      const auto k = static_cast<std::size_t>(i);
-      FLEETSLAM_CHECK(k < size, "FeatureGrid queried with fewer features than it was built from");
-      if (kCheckLevel && (levels[k] < lowest || levels[k] > highest)) continue;
-      const double du = points[k].x() - u;
-      const double dv = points[k].y() - v;
-      if (du * du + dv * dv <= r2) found.push_back(i);
-    }
-  }
+  found.resize(before + kept);
+  return kept;
 }
 
 std::optional<Eigen::Vector3d> Frame::unproject(std::size_t i) const {

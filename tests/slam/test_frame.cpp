@@ -7,6 +7,8 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "fleetslam/core/camera.hpp"
@@ -130,6 +132,53 @@ TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {
   EXPECT_THROW(grid.features_in_area(uv, {}, 320.0, 240.0, 50.0, 0, 2, found), InvariantError);
   const std::vector<Eigen::Vector2d> fewer(uv.begin(), uv.begin() + 10);
   EXPECT_THROW(grid.features_in_area(fewer, {}, 320.0, 240.0, 1000.0, -1, -1, found), InvariantError);
+}
+
+// scan_area: every feature of the cells around the query once, flagged in-area exactly for the features
+// features_in_area returns; a superset of them within the query square's cells. Grids of several shapes
+// (slices longer and rows more than the scan gathers at once) and crowded spots.
+TEST(FeatureGrid, ScanFlagsExactlyTheFeaturesInTheArea) {
+  std::mt19937 rng(44);
+  std::uniform_real_distribution<double> u_dist(-30.0, 670.0), v_dist(-30.0, 510.0), r_dist(0.0, 120.0);
+  std::uniform_real_distribution<double> near(-3.0, 3.0);
+  std::uniform_int_distribution<int> level_dist(0, 7), bound_dist(-1, 7);
+  const ImageBounds bounds = ImageBounds::of_image(640, 480);
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<int> level;
+  for (int i = 0; i < 2500; ++i) {
+    uv.emplace_back(u_dist(rng), v_dist(rng));
+    level.push_back(level_dist(rng));
+  }
+  for (int i = 0; i < 300; ++i) {  // a crowded spot: cells with dozens of features
+    uv.emplace_back(200.0 + near(rng), 150.0 + near(rng));
+    level.push_back(level_dist(rng));
+  }
+  for (const auto& [cols, rows] : {std::pair<int, int>{64, 48}, {8, 6}, {200, 150}, {1, 1}}) {
+    SCOPED_TRACE(std::to_string(cols) + "x" + std::to_string(rows));
+    const FeatureGrid grid(uv, bounds, cols, rows);
+    for (int q = 0; q < 1500; ++q) {
+      const bool crowded = q % 5 == 0;
+      const double u = crowded ? 200.0 + near(rng) : u_dist(rng);
+      const double v = crowded ? 150.0 + near(rng) : v_dist(rng);
+      const double r = q % 50 == 0 ? 0.0 : r_dist(rng);
+      const int min_level = q % 3 == 0 ? -1 : bound_dist(rng);
+      const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
+      std::vector<int> visited, in_area;
+      grid.scan_area(uv, level, u, v, r, min_level, max_level, [&](int i, bool inside) {
+        visited.push_back(i);
+        if (inside) in_area.push_back(i);
+      });
+      std::sort(in_area.begin(), in_area.end());
+      ASSERT_EQ(in_area, oracle(uv, level, bounds, u, v, r, min_level, max_level)) << "query " << q;
+      std::sort(visited.begin(), visited.end());
+      ASSERT_TRUE(std::adjacent_find(visited.begin(), visited.end()) == visited.end()) << "visited twice, query " << q;
+    }
+    std::size_t visits = 0;
+    grid.scan_area(uv, level, std::nan(""), 10.0, 5.0, -1, -1, [&](int, bool) { ++visits; });
+    grid.scan_area(uv, level, 10.0, 10.0, -1.0, -1, -1, [&](int, bool) { ++visits; });
+    grid.scan_area(uv, level, 10.0, 10.0, 5.0, 3, 2, [&](int, bool inside) { visits += inside ? 1 : 0; });
+    EXPECT_EQ(visits, 0u);
+  }
 }
 
 Frame frame_with(const std::vector<Eigen::Vector2d>& uv, const std::vector<double>& depth) {

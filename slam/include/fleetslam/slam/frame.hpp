@@ -2,7 +2,11 @@
 // A frame as the agent sees it: ORB features with undistorted coordinates, per-feature depth (RGB-D or
 // stereo), a grid for radius search, and the map points its features are matched to.
 
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -12,6 +16,7 @@
 #include <opencv2/core/types.hpp>
 
 #include "fleetslam/core/camera.hpp"
+#include "fleetslam/core/error.hpp"
 #include "fleetslam/core/time.hpp"
 
 namespace fleetslam::slam {
@@ -80,12 +85,39 @@ class FeatureGrid {
   std::size_t features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
                                double v, double radius_px, int min_level, int max_level,
                                std::vector<int>& found) const;
+  // Every indexed feature of the cells that the query square overlaps, offered in grid order as
+  // visit(index, in_area), where in_area says whether it is one of features_in_area's (distance <=
+  // radius_px, level within the bounds). For callers that fold the test into their own per-candidate work
+  // without branching on it: which features pass is unpredictable, and a mispredicted branch costs more
+  // than a little work on a feature that does not count. Nothing is visited when features_in_area would
+  // return nothing for want of a valid query or grid. Inline (below).
+  template <class Visit>
+  void scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                 double radius_px, int min_level, int max_level, Visit&& visit) const;
   bool empty() const { return cell_start_.empty(); }
 
  private:
-  template <bool kCheckLevel>
-  void append_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
-                      double radius_px, int min_level, int max_level, std::vector<int>& found) const;
+  // The query square's cells [x0, x1] x [y0, y1], as the constructor assigns features to cells; false
+  // when the grid is empty, the query invalid (non-finite centre, negative radius) or the square misses
+  // the grid. Checks that level bounds come with one level per feature.
+  bool query_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                   double radius_px, int min_level, int max_level, int& x0, int& x1, int& y0, int& y1) const;
+  // scan_area's loop over the cells query_cells found (kCheckLevel: min_level or max_level given).
+  template <bool kCheckLevel, class Visit>
+  void scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                  double radius_px, int min_level, int max_level, int x0, int x1, int y0, int y1,
+                  Visit&& visit) const;
+  // Cell range along one axis: floor((lo - origin) / cell_size) .. floor((hi - origin) / cell_size),
+  // clamped to [0, count - 1] (truncation where it is >= 0: clamping makes floor unnecessary); false when
+  // [lo, hi] misses the grid.
+  static bool cell_range(double lo, double hi, double origin, double cell_size, int count, int& first, int& last) {
+    const double from = (lo - origin) / cell_size;
+    const double to = (hi - origin) / cell_size;
+    if (!(to >= 0.0 && from < count)) return false;
+    first = from > 0.0 ? static_cast<int>(from) : 0;
+    last = to < count - 1.0 ? static_cast<int>(to) : count - 1;
+    return true;
+  }
 
   int cols_ = 0;
   int rows_ = 0;
@@ -94,8 +126,95 @@ class FeatureGrid {
   // Cell c (row-major, y * cols + x) holds indices_[cell_start_[c], cell_start_[c + 1]); cols * rows + 1
   // entries once built, none for a default-constructed grid.
   std::vector<int> cell_start_;
-  std::vector<int> indices_;
+  std::vector<int> indices_;  // followed by kGatherSlice spare entries
+  // scan_cells copies slices kGatherSlice indices at a time into a buffer of kGatherMax.
+  static constexpr int kGatherSlice = 16;
+  static constexpr int kGatherMax = 256;
 };
+
+inline bool FeatureGrid::query_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
+                                     double v, double radius_px, int min_level, int max_level, int& x0, int& x1,
+                                     int& y0, int& y1) const {
+  if (cell_start_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return false;
+  FLEETSLAM_CHECK((min_level < 0 && max_level < 0) || level.size() == uv.size(),
+                  "level bounds need one level per feature");
+  return cell_range(u - radius_px, u + radius_px, min_u_, cell_w_, cols_, x0, x1) &&
+         cell_range(v - radius_px, v + radius_px, min_v_, cell_h_, rows_, y0, y1);
+}
+
+template <class Visit>
+void FeatureGrid::scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                            double radius_px, int min_level, int max_level, Visit&& visit) const {
+  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  if (!query_cells(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1)) return;
+  if (min_level >= 0 || max_level >= 0) {
+    scan_cells<true>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, visit);
+  } else {
+    scan_cells<false>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, visit);
+  }
+}
+
+template <bool kCheckLevel, class Visit>
+void FeatureGrid::scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                             double radius_px, int min_level, int max_level, int x0, int x1, int y0, int y1,
+                             Visit&& visit) const {
+  // The level window [lowest, lowest + span] as one unsigned comparison: level - lowest <= span (modulo
+  // 2^32); an unbounded side becomes a bound every level meets. An empty window (min_level > max_level)
+  // keeps nothing through a negative squared radius instead, so that every feature is still visited (and
+  // checked against uv's size) as with any other window.
+  double r2 = radius_px * radius_px;
+  const int lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
+  const int highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
+  unsigned span = static_cast<unsigned>(highest) - static_cast<unsigned>(lowest);
+  if (lowest > highest) {
+    r2 = -1.0;
+    span = 0;
+  }
+  const std::size_t size = uv.size();
+  const Eigen::Vector2d* const points = uv.data();
+  const int* const levels = level.data();
+  const auto visit_one = [&](int i) {
+    const auto k = static_cast<std::size_t>(i);
+    FLEETSLAM_CHECK(k < size, "FeatureGrid queried with fewer features than it was built from");
+    const double du = points[k].x() - u;
+    const double dv = points[k].y() - v;
+    bool in_area = du * du + dv * dv <= r2;
+    if constexpr (kCheckLevel) {
+      in_area = in_area & (static_cast<unsigned>(levels[k]) - static_cast<unsigned>(lowest) <= span);
+    }
+    visit(i, in_area);
+  };
+  // Cells x0 .. x1 of a row are one contiguous slice of indices_. The slices are copied into one buffer,
+  // kGatherSlice indices each whatever their length (indices_ ends in kGatherSlice spare entries for the
+  // copy to run into), and visited in one loop: nested loops would mispredict the end of every slice, as
+  // their lengths vary from query to query. A longer slice, or more than the buffer holds, takes the
+  // nested loops (nothing has been visited then).
+  const int* const indices = indices_.data();
+  const int* const first_row = cell_start_.data() + static_cast<std::ptrdiff_t>(y0) * cols_;
+  int gathered[kGatherMax];
+  int count = 0;
+  bool all_gathered = true;
+  const int* row = first_row;
+  for (int y = y0; y <= y1; ++y, row += cols_) {
+    const int begin = row[x0];
+    const int length = row[x1 + 1] - begin;
+    if (length > kGatherSlice || count > kGatherMax - kGatherSlice) {
+      all_gathered = false;
+      break;
+    }
+    std::memcpy(gathered + count, indices + begin, sizeof(int) * kGatherSlice);
+    count += length;
+  }
+  if (all_gathered) {
+    for (int j = 0; j < count; ++j) visit_one(gathered[j]);
+    return;
+  }
+  row = first_row;
+  for (int y = y0; y <= y1; ++y, row += cols_) {
+    const int* const end = indices + row[x1 + 1];
+    for (const int* it = indices + row[x0]; it != end; ++it) visit_one(*it);
+  }
+}
 
 struct Frame {
   std::int64_t id = -1;
