@@ -25,6 +25,17 @@
 #ifndef FLEETSLAM_POPCNT_CLONES
 #define FLEETSLAM_POPCNT_CLONES
 #endif
+// The grid searches below pass their per-candidate work to FeatureGrid::scan_area as a lambda: flattened
+// into the POPCNT clones, or the lambda would be compiled on its own for the default CPU (a libgcc call
+// per popcount).
+#if defined(__has_attribute)
+#if __has_attribute(flatten)
+#define FLEETSLAM_FLATTEN __attribute__((flatten))
+#endif
+#endif
+#ifndef FLEETSLAM_FLATTEN
+#define FLEETSLAM_FLATTEN
+#endif
 
 namespace fleetslam::slam {
 namespace {
@@ -38,6 +49,12 @@ constexpr double kMinBinShare = 0.1;
 // level +-1" for integer predictions and makes the window symmetric: when both frames' depths agree,
 // stage 2's window (predicted from A's level) contains the level of the B feature stage 1 paired.
 constexpr double kLevelWindow = 1.5;
+// Distance ratios within scale_factor^+-kSameScaleShift predict less than half a level of change (with a
+// wide margin for rounding), so the window is the feature's own level +-1: no square root, division or
+// logarithm needed. Tested on squared distances within [kSquaredMin, kSquaredMax] (ratios stay finite).
+constexpr double kSameScaleShift = 0.45;
+constexpr double kSquaredMin = 1e-300;
+constexpr double kSquaredMax = 1e300;
 
 // Inlined into the POPCNT clones below, where the builtin becomes one instruction per word.
 inline int descriptor_distance(const std::uint8_t* a, const std::uint8_t* b) {
@@ -71,33 +88,10 @@ inline void offer(Nearest& nearest, int index, int distance) {
 }
 
 FLEETSLAM_POPCNT_CLONES
-Nearest nearest_among(const std::uint8_t* query, const cv::Mat& descriptors, const std::vector<int>& candidates) {
-  Nearest nearest;
-  for (const int i : candidates) offer(nearest, i, descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)));
-  return nearest;
-}
-
-FLEETSLAM_POPCNT_CLONES
 Nearest nearest_of_all(const std::uint8_t* query, const cv::Mat& descriptors) {
   Nearest nearest;
   for (int i = 0; i < descriptors.rows; ++i) offer(nearest, i, descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)));
   return nearest;
-}
-
-// Stage 2's test: `expected` is a candidate and no other candidate is strictly closer to the query (a tie
-// cannot tell the two apart, so it does not overrule stage 1).
-FLEETSLAM_POPCNT_CLONES
-bool is_nearest(const std::uint8_t* query, const cv::Mat& descriptors, const std::vector<int>& candidates,
-                int expected, int expected_distance) {
-  bool found = false;
-  for (const int i : candidates) {
-    if (i == expected) {
-      found = true;
-    } else if (descriptor_distance(query, descriptors.ptr<std::uint8_t>(i)) < expected_distance) {
-      return false;
-    }
-  }
-  return found;
 }
 
 // ORB-SLAM's thresholds: an absolute distance bound, then best < nn_ratio * second best.
@@ -125,33 +119,91 @@ void check_frame(const Frame& frame, const char* name, bool needs_angles) {
 // A frame being searched, with what every query into it needs computed once per call.
 class SearchedFrame {
  public:
+  // Where a camera-frame point projects and the pyramid levels its candidates may have.
+  struct Query {
+    double u = 0.0;
+    double v = 0.0;
+    int min_level = 0;
+    int max_level = 0;
+  };
+
   explicit SearchedFrame(const Frame& frame)
       : frame_(frame),
         area_(frame.bounds.empty() ? ImageBounds::of_image(frame.camera.width(), frame.camera.height())
                                    : frame.bounds),
+        fx_(frame.camera.fx()),
+        fy_(frame.camera.fy()),
+        cx_(frame.camera.cx()),
+        cy_(frame.camera.cy()),
         top_level_(static_cast<int>(frame.pyramid.scale.size()) - 1),
         inv_log_scale_(top_level_ > 0 && frame.pyramid.scale_factor > 1.0 ? 1.0 / std::log(frame.pyramid.scale_factor)
-                                                                          : 0.0) {
+                                                                          : 0.0),
+        // Without a scale step every positive finite ratio predicts no change (log(ratio) * 0).
+        same_scale_min2_(inv_log_scale_ > 0.0 ? std::pow(frame.pyramid.scale_factor, -2.0 * kSameScaleShift) : 0.0),
+        same_scale_max2_(inv_log_scale_ > 0.0 ? std::pow(frame.pyramid.scale_factor, 2.0 * kSameScaleShift)
+                                              : std::numeric_limits<double>::infinity()) {
     // uv are undistorted coordinates, so projecting with the plain pinhole is exact (frame.hpp).
     FLEETSLAM_CHECK(frame.size() == 0 || frame.camera.distortion().is_zero(),
                     "matcher: Frame::camera must be the distortion-free camera of the undistorted uv");
   }
 
-  // Features around where camera-frame point p_cam projects, within radius_px, at the levels predicted
-  // for a feature seen at `level` from distance_seen metres. Empty when p_cam is behind the camera or
-  // projects outside the frame's area (Frame::bounds, or the image).
-  std::vector<int> candidates(const Eigen::Vector3d& p_cam, double radius_px, int level, double distance_seen) const {
-    if (!(p_cam.z() > core::PinholeCamera::min_depth)) return {};
-    const double u = frame_.camera.fx() * p_cam.x() / p_cam.z() + frame_.camera.cx();
-    const double v = frame_.camera.fy() * p_cam.y() / p_cam.z() + frame_.camera.cy();
-    if (!(u >= area_.min_u && u < area_.max_u && v >= area_.min_v && v < area_.max_v)) return {};
-    const double predicted = predicted_level(level, distance_seen, p_cam.norm());
-    const int min_level = std::max(0, static_cast<int>(std::ceil(predicted - kLevelWindow)));
-    const int max_level = std::min(top_level_, static_cast<int>(std::floor(predicted + kLevelWindow)));
-    return frame_.grid.features_in_area(frame_.uv, frame_.level, u, v, radius_px, min_level, max_level);
+  // The query for camera-frame point p_cam of a feature seen at `level` as p_seen (the point in the
+  // camera that saw it; distance_seen = |p_seen|): its projection and the levels predicted for it. False
+  // (no candidates) when p_cam is behind the camera or projects outside the frame's area (Frame::bounds,
+  // or the image).
+  bool query(const Eigen::Vector3d& p_cam, int level, const Eigen::Vector3d& p_seen, Query& q) const {
+    if (!(p_cam.z() > core::PinholeCamera::min_depth)) return false;
+    q.u = fx_ * p_cam.x() / p_cam.z() + cx_;
+    q.v = fy_ * p_cam.y() / p_cam.z() + cy_;
+    if (!(q.u >= area_.min_u && q.u < area_.max_u && q.v >= area_.min_v && q.v < area_.max_v)) return false;
+    level_window(level, p_seen.squaredNorm(), p_cam.squaredNorm(), q);
+    return true;
+  }
+
+  const Frame& frame() const { return frame_; }
+
+  // Whether feature i passes the query's level and distance tests, with the grid's arithmetic: a feature
+  // failing them is not among the query's candidates within radius_px (one that passes is, when the grid
+  // indexes it).
+  bool level_and_distance_pass(const Query& q, double radius_px, std::size_t i) const {
+    const int l = frame_.level[i];
+    if ((q.min_level >= 0 && l < q.min_level) || (q.max_level >= 0 && l > q.max_level)) return false;
+    const double du = frame_.uv[i].x() - q.u;
+    const double dv = frame_.uv[i].y() - q.v;
+    return du * du + dv * dv <= radius_px * radius_px;
   }
 
  private:
+  // Levels within kLevelWindow of the predicted level: max(0, ceil(predicted - window)) ..
+  // min(top, floor(predicted + window)), from the squared distances (norm() is the square root of
+  // squaredNorm()).
+  void level_window(int level, double distance_seen2, double distance_now2, Query& q) const {
+    // Shortcut, the same levels: with level in [0, top] and |predicted - level| <= kSameScaleShift + rounding
+    // < 0.5, predicted - 1.5 lies in (level - 2, level - 1) and predicted + 1.5 in (level + 1, level + 2).
+    // Without a positive distance on either side nothing is predicted (predicted == level).
+    if (level <= top_level_) {
+      const bool no_ratio = !(distance_seen2 > 0.0 && distance_now2 > 0.0);
+      const bool same_scale = distance_seen2 >= kSquaredMin && distance_seen2 <= kSquaredMax &&
+                              distance_now2 >= kSquaredMin && distance_now2 <= kSquaredMax &&
+                              distance_seen2 >= same_scale_min2_ * distance_now2 &&
+                              distance_seen2 <= same_scale_max2_ * distance_now2;
+      if (no_ratio || same_scale) {
+        q.min_level = std::max(0, level - 1);
+        q.max_level = std::min(top_level_, level + 1);
+        return;
+      }
+    }
+    // predicted is in [0, top]: ceil only matters above 0, and floor is truncation.
+    const double predicted = predicted_level(level, std::sqrt(distance_seen2), std::sqrt(distance_now2));
+    const double lowest = predicted - kLevelWindow;
+    q.min_level = 0;
+    if (lowest > 0.0) {
+      q.min_level = static_cast<int>(lowest);
+      if (q.min_level < lowest) ++q.min_level;
+    }
+    q.max_level = std::min(top_level_, static_cast<int>(predicted + kLevelWindow));
+  }
+
   // ORB-SLAM's scale prediction, from the feature's own level instead of a map point's distance range:
   // a patch's image size scales with 1 / distance, so seen at `level` from distance_seen it appears
   // log(distance_seen / distance_now) / log(scale_factor) levels higher from distance_now.
@@ -163,9 +215,75 @@ class SearchedFrame {
 
   const Frame& frame_;
   ImageBounds area_;
+  double fx_, fy_, cx_, cy_;
   int top_level_;
   double inv_log_scale_;
+  double same_scale_min2_;  // squared distance ratios in [same_scale_min2_, same_scale_max2_] take the shortcut
+  double same_scale_max2_;
 };
+
+// The candidates of a query are the features FeatureGrid::features_in_area finds around (q.u, q.v) within
+// radius_px at levels q.min_level .. q.max_level. Both searches below take every feature of the cells the
+// query overlaps from FeatureGrid::scan_area with its in-area flag, no candidate list in between, and give
+// what the straightforward loop over the sorted candidates gives.
+
+// The closest and second-closest candidate descriptors to `query` (ties: the lower index, as when
+// offering the sorted candidates). Without branches on the in-area flag (which features pass is
+// unpredictable): every scanned feature's distance is computed and a non-candidate's made kOutside. Keys
+// (distance << 32 | index) order by distance, then index.
+FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
+Nearest nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched, const SearchedFrame::Query& q,
+                        double radius_px) {
+  constexpr std::uint32_t kOutside = std::numeric_limits<std::uint32_t>::max();  // "distance" of a non-candidate
+  const Frame& frame = searched.frame();
+  const std::uint8_t* const rows = frame.descriptors.data;
+  const std::size_t step = frame.descriptors.step[0];
+  std::uint64_t best = std::numeric_limits<std::uint64_t>::max();
+  std::uint32_t second = kOutside;
+  frame.grid.scan_area(frame.uv, frame.level, q.u, q.v, radius_px, q.min_level, q.max_level, [&](int i, bool in_area) {
+    const auto distance = static_cast<std::uint32_t>(descriptor_distance(query, rows + static_cast<std::size_t>(i) * step));
+    const std::uint32_t d = distance | (0U - static_cast<std::uint32_t>(!in_area));  // kOutside unless in the area
+    const auto best_distance = static_cast<std::uint32_t>(best >> 32);
+    second = std::min(second, std::max(best_distance, d));  // the second smallest distance so far
+    best = std::min(best, (std::uint64_t{d} << 32) | static_cast<std::uint32_t>(i));
+  });
+  Nearest nearest;
+  if (static_cast<std::uint32_t>(best >> 32) != kOutside) {
+    nearest.index = static_cast<int>(best & 0xFFFFFFFFU);
+    nearest.distance = static_cast<int>(best >> 32);
+  }
+  if (second != kOutside) nearest.second_distance = static_cast<int>(second);
+  return nearest;
+}
+
+// Stage 2's test: `expected` is a candidate and no other candidate is strictly closer to the query (a tie
+// cannot tell the two apart, so it does not overrule stage 1). Unlike stage 1, descriptors are compared
+// only for the other candidates, which are few (the branch on them is predictable): stage 2 spends little
+// on each feature it scans.
+FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
+bool is_nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched, const SearchedFrame::Query& q,
+                        double radius_px, int expected, int expected_distance) {
+  const Frame& frame = searched.frame();
+  const std::uint8_t* const rows = frame.descriptors.data;
+  const std::size_t step = frame.descriptors.step[0];
+  bool found = false;
+  bool closer = false;
+  frame.grid.scan_area(frame.uv, frame.level, q.u, q.v, radius_px, q.min_level, q.max_level, [&](int i, bool in_area) {
+    const bool is_expected = i == expected;
+    found = found | (in_area & is_expected);
+    if (in_area & !is_expected) {
+      closer = closer || descriptor_distance(query, rows + static_cast<std::size_t>(i) * step) < expected_distance;
+    }
+  });
+  return found && !closer;
+}
+
+// factor * scale[l] for every level l of the pyramid: a search radius per level, computed once per call.
+std::vector<double> radius_per_level(double factor, const ScalePyramid& pyramid) {
+  std::vector<double> radius(pyramid.scale.size());
+  for (std::size_t l = 0; l < radius.size(); ++l) radius[l] = factor * pyramid.scale[l];
+  return radius;
+}
 
 // One-to-one: when several B features pick the same A feature, the closest descriptor wins (the first
 // in B order on ties). Returns the matches sorted by A index.
@@ -231,13 +349,17 @@ std::vector<Match> finish(const std::vector<Match>& proposals, const Frame& a, c
 std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const FeaturePoints& p_b,
                                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
   const SearchedFrame searched(a);
+  const std::vector<double> radius = radius_per_level(config.radius_px, b.pyramid);
   std::vector<Match> proposals;
+  proposals.reserve(b.size());
+  SearchedFrame::Query query;
   for (std::size_t ib = 0; ib < b.size(); ++ib) {
     if (!p_b[ib]) continue;
+    const Eigen::Vector3d& point = *p_b[ib];
     const int level_b = b.level[ib];
-    const double radius = config.radius_px * b.pyramid.scale[static_cast<std::size_t>(level_b)];
-    const auto candidates = searched.candidates(T_a_b * *p_b[ib], radius, level_b, p_b[ib]->norm());
-    const Nearest nearest = nearest_among(b.descriptors.ptr<std::uint8_t>(static_cast<int>(ib)), a.descriptors, candidates);
+    if (!searched.query(T_a_b * point, level_b, point, query)) continue;
+    const Nearest nearest = nearest_in_area(b.descriptors.ptr<std::uint8_t>(static_cast<int>(ib)), searched, query,
+                                            radius[static_cast<std::size_t>(level_b)]);
     if (passes_thresholds(nearest, config)) proposals.push_back({nearest.index, static_cast<int>(ib), nearest.distance});
   }
   return finish(proposals, a, b, config);
@@ -246,12 +368,16 @@ std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const Featur
 // Stage 2: A's own 3D point of each stage-1 match, projected into B with T_b_a, searched within
 // r2 = r2_over_r1 * radius_px * scale[level of the A feature]; the pair stays only when the stage-1 B
 // feature is the closest candidate. A point of A behind B or outside B's image cannot confirm the pair.
+// The stage-1 B feature is tested first (its level and distance, without the grid): when it is no
+// candidate the pair is rejected without a search.
 void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_a, const Frame& b,
                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
   const Eigen::Isometry3d T_b_a = T_a_b.inverse();
   const SearchedFrame searched(b);
+  const std::vector<double> radius = radius_per_level(config.r2_over_r1 * config.radius_px, a.pyramid);
   std::vector<Match> kept;
   kept.reserve(result.matches.size());
+  SearchedFrame::Query query;
   for (const Match& m : result.matches) {
     const auto ia = static_cast<std::size_t>(m.a);
     if (!p_a[ia]) {  // monocular A feature: nothing to check with
@@ -259,9 +385,14 @@ void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_
       kept.push_back(m);
       continue;
     }
-    const double radius = config.r2_over_r1 * config.radius_px * a.pyramid.scale[static_cast<std::size_t>(a.level[ia])];
-    const auto candidates = searched.candidates(T_b_a * *p_a[ia], radius, a.level[ia], p_a[ia]->norm());
-    if (is_nearest(a.descriptors.ptr<std::uint8_t>(m.a), b.descriptors, candidates, m.b, m.distance)) {
+    const Eigen::Vector3d& point = *p_a[ia];
+    const int level_a = a.level[ia];
+    const double r2_px = radius[static_cast<std::size_t>(level_a)];
+    const bool confirmed =
+        searched.query(T_b_a * point, level_a, point, query) &&
+        searched.level_and_distance_pass(query, r2_px, static_cast<std::size_t>(m.b)) &&
+        is_nearest_in_area(a.descriptors.ptr<std::uint8_t>(m.a), searched, query, r2_px, m.b, m.distance);
+    if (confirmed) {
       kept.push_back(m);
     } else {
       ++result.rejected_by_cross_check;

@@ -235,6 +235,154 @@ bool contains(const MatchResult& result, int a, int b) {
   return std::any_of(result.matches.begin(), result.matches.end(), [&](const Match& m) { return m.a == a && m.b == b; });
 }
 
+// --- A straightforward reference of the projection matcher ---
+// matcher.hpp's rules written out plainly: candidates by scanning every feature of the searched frame in
+// index order (no grid), fresh vectors everywhere. The optimised matcher must give exactly its results.
+
+struct ReferenceNearest {
+  int index = -1;
+  int distance = 1 << 30;
+  int second_distance = 1 << 30;
+};
+
+// Features of `searched` around where p_cam projects: inside the frame's area (the grid's), at a level
+// within 1.5 of the predicted one, at distance <= radius; ascending.
+std::vector<int> reference_candidates(const Frame& searched, const Eigen::Vector3d& p_cam, double radius, int level,
+                                      double distance_seen) {
+  if (!(p_cam.z() > core::PinholeCamera::min_depth)) return {};
+  const auto& camera = searched.camera;
+  const double u = camera.fx() * p_cam.x() / p_cam.z() + camera.cx();
+  const double v = camera.fy() * p_cam.y() / p_cam.z() + camera.cy();
+  const ImageBounds area =
+      searched.bounds.empty() ? ImageBounds::of_image(camera.width(), camera.height()) : searched.bounds;
+  const auto inside = [&](double x, double y) { return x >= area.min_u && x < area.max_u && y >= area.min_v && y < area.max_v; };
+  if (!inside(u, v)) return {};
+  const int top = static_cast<int>(searched.pyramid.scale.size()) - 1;
+  const double inv_log_scale = top > 0 && searched.pyramid.scale_factor > 1.0 ? 1.0 / std::log(searched.pyramid.scale_factor) : 0.0;
+  double predicted = level;
+  const double distance_now = p_cam.norm();
+  if (distance_seen > 0.0 && distance_now > 0.0) predicted += std::log(distance_seen / distance_now) * inv_log_scale;
+  predicted = std::clamp(predicted, 0.0, static_cast<double>(top));
+  const int min_level = std::max(0, static_cast<int>(std::ceil(predicted - 1.5)));
+  const int max_level = std::min(top, static_cast<int>(std::floor(predicted + 1.5)));
+  std::vector<int> found;
+  for (std::size_t i = 0; i < searched.size(); ++i) {
+    const Eigen::Vector2d& p = searched.uv[i];
+    if (!inside(p.x(), p.y()) || searched.level[i] < min_level || searched.level[i] > max_level) continue;
+    if ((p - Eigen::Vector2d(u, v)).squaredNorm() <= radius * radius) found.push_back(static_cast<int>(i));
+  }
+  return found;
+}
+
+int reference_distance(const Frame& x, int i, const Frame& y, int j) {
+  return hamming_distance(x.descriptors.ptr<std::uint8_t>(i), y.descriptors.ptr<std::uint8_t>(j));
+}
+
+int reference_rotation_bin(float a_deg, float b_deg) {
+  double diff = std::fmod(static_cast<double>(a_deg) - static_cast<double>(b_deg), 360.0);
+  if (!std::isfinite(diff)) return 0;
+  if (diff < 0.0) diff += 360.0;
+  return static_cast<int>(std::lround(diff * 30.0 / 360.0)) % 30;
+}
+
+MatchResult reference_match(const Frame& a, const FeaturePoints& p_a, const Frame& b, const FeaturePoints& p_b,
+                            const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  MatchResult result;
+  if (a.size() == 0 || b.size() == 0) return result;
+  // Stage 1: nearest in index order (ties: the first), threshold, ratio.
+  std::vector<Match> proposals;
+  for (std::size_t ib = 0; ib < b.size(); ++ib) {
+    if (!p_b[ib]) continue;
+    const double radius = config.radius_px * b.pyramid.scale[static_cast<std::size_t>(b.level[ib])];
+    ReferenceNearest nearest;
+    for (const int ia : reference_candidates(a, T_a_b * *p_b[ib], radius, b.level[ib], p_b[ib]->norm())) {
+      const int d = reference_distance(b, static_cast<int>(ib), a, ia);
+      if (d < nearest.distance) {
+        nearest.second_distance = nearest.distance;
+        nearest.distance = d;
+        nearest.index = ia;
+      } else if (d < nearest.second_distance) {
+        nearest.second_distance = d;
+      }
+    }
+    if (nearest.index < 0 || nearest.distance > config.max_distance) continue;
+    if (nearest.second_distance != 1 << 30 &&
+        !(static_cast<double>(nearest.distance) <= config.nn_ratio * static_cast<double>(nearest.second_distance))) {
+      continue;
+    }
+    proposals.push_back({nearest.index, static_cast<int>(ib), nearest.distance});
+  }
+  // One-to-one: the closest per A feature, the first in B order on ties; by A index.
+  std::map<int, Match> best;
+  for (const Match& m : proposals) {
+    const auto it = best.find(m.a);
+    if (it == best.end() || m.distance < it->second.distance) best[m.a] = m;
+  }
+  std::vector<Match> matches;
+  for (const auto& [ia, m] : best) matches.push_back(m);
+  // Rotation: the three fullest bins (ties: the lower bin), the 2nd and 3rd with >= 10 % of the 1st.
+  if (config.check_orientation && !matches.empty()) {
+    std::vector<int> count(30, 0);
+    for (const Match& m : matches) {
+      ++count[static_cast<std::size_t>(reference_rotation_bin(a.keypoints[static_cast<std::size_t>(m.a)].angle,
+                                                               b.keypoints[static_cast<std::size_t>(m.b)].angle))];
+    }
+    std::vector<int> order(30);
+    for (int i = 0; i < 30; ++i) order[static_cast<std::size_t>(i)] = i;
+    std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return count[static_cast<std::size_t>(x)] > count[static_cast<std::size_t>(y)]; });
+    std::set<int> keep;
+    for (std::size_t rank = 0; rank < 3; ++rank) {
+      const int c = count[static_cast<std::size_t>(order[rank])];
+      if (c > 0 && (rank == 0 || c >= 0.1 * count[static_cast<std::size_t>(order[0])])) keep.insert(order[rank]);
+    }
+    std::vector<Match> kept;
+    for (const Match& m : matches) {
+      if (keep.count(reference_rotation_bin(a.keypoints[static_cast<std::size_t>(m.a)].angle,
+                                            b.keypoints[static_cast<std::size_t>(m.b)].angle)) > 0) {
+        kept.push_back(m);
+      }
+    }
+    matches = kept;
+  }
+  result.stage1_matches = static_cast<int>(matches.size());
+  if (!config.cross_validation) {
+    result.matches = matches;
+    return result;
+  }
+  // Stage 2: A's point into B within r2; the B feature must be a candidate with none strictly closer.
+  const Eigen::Isometry3d T_b_a = T_a_b.inverse();
+  for (const Match& m : matches) {
+    const auto ia = static_cast<std::size_t>(m.a);
+    if (!p_a[ia]) {
+      ++result.unchecked;
+      result.matches.push_back(m);
+      continue;
+    }
+    const double radius = config.r2_over_r1 * config.radius_px * a.pyramid.scale[static_cast<std::size_t>(a.level[ia])];
+    const auto candidates = reference_candidates(b, T_b_a * *p_a[ia], radius, a.level[ia], p_a[ia]->norm());
+    bool keep = std::find(candidates.begin(), candidates.end(), m.b) != candidates.end();
+    for (const int ib : candidates) keep = keep && reference_distance(a, m.a, b, ib) >= m.distance;
+    if (keep) {
+      result.matches.push_back(m);
+    } else {
+      ++result.rejected_by_cross_check;
+    }
+  }
+  return result;
+}
+
+void expect_same_result(const MatchResult& expected, const MatchResult& actual) {
+  EXPECT_EQ(actual.stage1_matches, expected.stage1_matches);
+  EXPECT_EQ(actual.rejected_by_cross_check, expected.rejected_by_cross_check);
+  EXPECT_EQ(actual.unchecked, expected.unchecked);
+  ASSERT_EQ(actual.matches.size(), expected.matches.size());
+  for (std::size_t i = 0; i < expected.matches.size(); ++i) {
+    EXPECT_EQ(actual.matches[i].a, expected.matches[i].a) << "match " << i;
+    EXPECT_EQ(actual.matches[i].b, expected.matches[i].b) << "match " << i;
+    EXPECT_EQ(actual.matches[i].distance, expected.matches[i].distance) << "match " << i;
+  }
+}
+
 // --- Hamming distance and 3D points ---
 
 TEST(HammingDistance, MatchesBitCountOracleOnUnalignedRows) {
@@ -647,6 +795,64 @@ void expect_invariants(const Scene& scene, const MatchResult& result, const Matc
   }
   EXPECT_EQ(static_cast<int>(result.matches.size()) + result.rejected_by_cross_check, result.stage1_matches);
   EXPECT_LE(result.unchecked, static_cast<int>(result.matches.size()));
+}
+
+// Exactly the reference's matches and counters, over scenes with repeated texture (close distances and
+// ties), features at identical spots with identical descriptors (exact ties, which the lower index wins),
+// wrong poses, forward motion (distance ratios that move the predicted level), A features without
+// points, and radii, ratios and switches other than the defaults.
+TEST(Projection, SameResultsAsTheStraightforwardReference) {
+  int compared = 0, with_rejections = 0;
+  for (unsigned seed = 200; seed < 220; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> angle(0.0, 0.05), shift(-0.08, 0.08), unit(0.0, 1.0);
+    SceneOptions options;
+    options.seed = seed;
+    options.points = 100 + static_cast<int>(seed % 7) * 80;
+    options.repeated_texture = 0.6 * unit(rng);
+    options.max_flips = 6 + static_cast<int>(seed % 9);
+    options.level_change = 0.3;
+    // Every fourth scene B is 0.3-0.6 m ahead of or behind A.
+    const double forward = seed % 4 == 3 ? (seed % 8 == 3 ? 1.0 : -1.0) * (0.3 + 0.3 * unit(rng)) : 0.0;
+    options.T_a_b = core::make_pose(Eigen::Vector3d(shift(rng), shift(rng), shift(rng) + forward),
+                                    Eigen::Quaterniond(Eigen::AngleAxisd(angle(rng), Eigen::Vector3d(0.3, 1.0, 0.2).normalized())));
+    Scene scene = make_scene(options);
+    for (std::size_t i = 0; i < scene.fa.size(); i += 9) scene.fa.push_back(scene.fa[i]);  // exact twins in A
+    for (std::size_t i = 0; i < scene.fb.size(); i += 11) scene.fb.push_back(scene.fb[i]);  // and in B
+    scene.build();
+    const Eigen::Isometry3d off = scene.T_a_b * core::make_pose(Eigen::Vector3d(0.01, 0.0, 0.0),
+                                                                Eigen::Quaterniond(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY())));
+    FeaturePoints some_a = scene.p_a;
+    for (std::size_t i = 0; i < some_a.size(); i += 4) some_a[i].reset();
+    for (int variant = 0; variant < 10; ++variant) {
+      MatcherConfig config;
+      config.cross_validation = variant % 2 == 1;
+      if (variant / 2 == 1) {
+        config.radius_px = 30.0;
+        config.r2_over_r1 = 0.3;
+      } else if (variant / 2 == 2) {
+        config.nn_ratio = 1.0;  // exact ties pass: the lower index must win
+        config.check_orientation = false;
+        config.r2_over_r1 = 1.0;
+      } else if (variant / 2 == 3) {
+        config.radius_px = 5.0;
+        config.max_distance = 50;
+      } else if (variant / 2 == 4) {
+        config.nn_ratio = 1.0;
+        config.radius_px = 40.0;
+      }
+      const Eigen::Isometry3d& pose = variant % 4 < 2 ? scene.T_a_b : off;
+      const FeaturePoints& p_a = seed % 3 == 0 ? some_a : scene.p_a;
+      SCOPED_TRACE("variant " + std::to_string(variant));
+      const MatchResult expected = reference_match(scene.a, p_a, scene.b, scene.p_b, pose, config);
+      expect_same_result(expected, match_by_projection(scene.a, p_a, scene.b, scene.p_b, pose, config));
+      ++compared;
+      with_rejections += expected.rejected_by_cross_check > 0 ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(compared, 200);
+  EXPECT_GE(with_rejections, 30);  // of 100 runs with stage 2: it had work to do
 }
 
 TEST(Matchers, PropertiesOverSeeds) {

@@ -19,14 +19,18 @@
 //    with agreeing depths stage 2's window holds the level of the B feature stage 1 chose).
 //  - A point behind the searched camera or projecting outside its frame area (Frame::bounds, or the
 //    image) has no candidates: in stage 1 the B feature stays unmatched, in stage 2 the pair is rejected.
-//  - Stage 1 keeps the closest candidate when its distance <= max_distance and <= nn_ratio * the second
-//    closest (another feature); then one-to-one (several B features on one A feature: the closest wins,
-//    the first in B order on ties); then the rotation histogram: 30 bins of the keypoint angle difference
-//    (bin 0 centred on no rotation), matches outside the three fullest bins dropped (the second and third
-//    only count with >= 10 % of the first's matches, as in ORB-SLAM).
+//  - Stage 1 keeps the closest candidate (the lower A index among equally close ones) when its distance
+//    <= max_distance and <= nn_ratio * the second closest (another feature); then one-to-one (several B
+//    features on one A feature: the closest wins, the first in B order on ties); then the rotation
+//    histogram: 30 bins of the keypoint angle difference (bin 0 centred on no rotation), matches outside
+//    the three fullest bins dropped (the second and third only count with >= 10 % of the first's matches,
+//    as in ORB-SLAM).
 //  - Stage 2 keeps the pair when its B feature is among the candidates and none is strictly closer to A's
 //    descriptor (a tie cannot tell them apart, so it does not overrule stage 1); no threshold or ratio.
 // Deterministic: results depend only on the inputs. Frames must be finalize()d (their grids are used).
+// Cost: one grid search per B feature with a 3D point (stage 1) and, with cross-validation, one smaller
+// search per stage-1 match whose B feature passes the level and r2 tests itself (stage 2); candidates are
+// taken from FeatureGrid::scan_area as they come, without allocating.
 
 #include <cstdint>
 #include <optional>
