@@ -23,6 +23,13 @@ std::string to_string(FrameStatus status) {
   return "unknown";
 }
 
+KeyframePolicyConfig AgentConfig::default_keyframes() {
+  KeyframePolicyConfig c;
+  c.policy = KeyframePolicyKind::kExponential;
+  c.q_threshold = 2.0;
+  return c;
+}
+
 namespace {
 
 // The rig as the front end should use it: the sensor mode the config asks for.

@@ -23,6 +23,9 @@ MatcherConfig TrackingConfig::default_matcher() {
   MatcherConfig c;
   c.radius_px = 7.0;
   c.nn_ratio = 0.9;
+  // Measured on TUM fr1_rpy (fast, jerky rotation): the constant-velocity guess is often off by more
+  // than r2, where the second stage drops correct matches; median ATE 2.7 cm without, 3.3 cm with.
+  c.cross_validation = false;
   return c;
 }
 
@@ -46,7 +49,7 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   bool ok = !recovering && track_last_frame(w, map, result);
   if (!ok) {
     w.clear_matches();
-    ok = track_reference_keyframe(w, map, result);
+    ok = track_reference_keyframe(w, map, result, recovering);
   }
   if (ok) ok = track_local_map(w, map, result);
   if (!ok) {
@@ -76,8 +79,7 @@ void Tracker::lose(Working& w, const Map& map, TrackingResult& result) {
     if (const auto T_cw = predicted_pose(map, w.frame.t_ns)) last_T_world_cam_ = T_cw->inverse();
     lost_frames_ = 1;
   }
-  state_ = TrackingState::kLost;
-  velocity_.reset();
+  state_ = TrackingState::kLost;  // the velocity stays: recovery predicts with it
   result.state = state_;
   result.stage.clear();
   if (result.reason.empty()) result.reason = "too few matches";

@@ -1,6 +1,8 @@
 // Frame-to-frame stages of tracking (last frame with the motion model, reference keyframe) and the
 // pose-only optimisation they share with the local map stage.
 
+#include <vector>
+
 #include <spdlog/logger.h>
 
 #include "fleetslam/slam/tracker.hpp"
@@ -69,10 +71,12 @@ int Tracker::optimize(Working& w, const Map& map, const Eigen::Isometry3d& T_cam
   }
   f.T_world_cam = r.T_cam_world.inverse();
   int map_inliers = 0;
+  w.temporary_inliers = 0;
   for (std::size_t k = 0; k < feature_of.size(); ++k) {
     const std::size_t i = feature_of[k];
     f.outlier[i] = r.outlier[k];
-    if (!r.outlier[k] && f.map_points[i] != kNoMapPoint) ++map_inliers;
+    if (r.outlier[k]) continue;
+    (f.map_points[i] != kNoMapPoint ? map_inliers : w.temporary_inliers) += 1;
   }
   return map_inliers;
 }
@@ -100,9 +104,11 @@ bool Tracker::track_last_frame(Working& w, Map& map, TrackingResult& result) {
   const int inliers = optimize(w, map, *T_cw, result);
   w.drop_outliers();
   result.stage = "motion_model";
-  logger_->debug("t={} motion model: {} matches ({} rejected by cross-check), {} map inliers",
-                 core::format_seconds(w.frame.t_ns, 6), m.matches.size(), m.rejected_by_cross_check, inliers);
-  return inliers >= config_.min_frame_inliers;
+  logger_->debug("t={} motion model: {} matches ({} rejected by cross-check), {} map + {} temporary inliers",
+                 core::format_seconds(w.frame.t_ns, 6), m.matches.size(), m.rejected_by_cross_check, inliers,
+                 w.temporary_inliers);
+  // Temporary points fix the pose as well as map points do; the local map stage decides on the map.
+  return inliers + w.temporary_inliers >= config_.min_frame_inliers;
 }
 
 // Matches the frame with the reference keyframe's points seen from `T_cw` and optimises the pose;
@@ -124,10 +130,27 @@ int Tracker::match_reference(Working& w, const Keyframe& ref, const Map& map, co
   return inliers;
 }
 
-// Without a usable prediction the last pose may be far off: a wide window without the cross-check
-// (whose second stage would reject every match that the pose error displaces by more than r2) gives a
-// first pose; the regular matcher then runs from that pose.
-bool Tracker::track_reference_keyframe(Working& w, Map& map, TrackingResult& result) {
+// Without a usable prediction the prior may be far off: a wide window without the cross-check (whose
+// second stage would reject every match that the pose error displaces by more than r2) gives a first
+// pose; the regular matcher then runs from that pose.
+int Tracker::match_reference_from(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw_prior,
+                                  TrackingResult& result) {
+  MatcherConfig wide = config_.matcher;
+  wide.radius_px *= config_.reference_radius_factor;
+  wide.cross_validation = false;
+  const int coarse = match_reference(w, ref, map, T_cw_prior, wide, result);
+  if (coarse < config_.min_frame_inliers) return coarse;
+  const Eigen::Isometry3d T_cw = w.frame.T_world_cam->inverse();
+  w.clear_matches();
+  const int inliers = match_reference(w, ref, map, T_cw, config_.matcher, result);
+  logger_->debug("t={} reference keyframe {}: {} inliers from the prior, {} from the refined pose",
+                 core::format_seconds(w.frame.t_ns, 6), ref.id, coarse, inliers);
+  return inliers;
+}
+
+// Priors: the last good pose; while recovering from a loss also the constant-velocity guess first (the
+// camera usually keeps turning through a blurred stretch).
+bool Tracker::track_reference_keyframe(Working& w, Map& map, TrackingResult& result, bool recovering) {
   const auto live = map.live_keyframe(reference_keyframe_);
   const std::optional<Eigen::Isometry3d> T_wl = last_frame_pose(map);
   if (!live || !T_wl) {
@@ -135,19 +158,18 @@ bool Tracker::track_reference_keyframe(Working& w, Map& map, TrackingResult& res
     return false;
   }
   const Keyframe& ref = *map.keyframe(live->first);
-  MatcherConfig wide = config_.matcher;
-  wide.radius_px *= config_.reference_radius_factor;
-  wide.cross_validation = false;
-  const int coarse = match_reference(w, ref, map, T_wl->inverse(), wide, result);
-  int inliers = coarse;
-  if (coarse >= config_.min_frame_inliers) {
-    const Eigen::Isometry3d T_cw = w.frame.T_world_cam->inverse();
+  std::vector<Eigen::Isometry3d> priors;
+  if (recovering) {
+    if (const std::optional<Eigen::Isometry3d> T_cw = predicted_pose(map, w.frame.t_ns)) priors.push_back(*T_cw);
+  }
+  priors.push_back(T_wl->inverse());
+  int inliers = 0;
+  for (const Eigen::Isometry3d& prior : priors) {
     w.clear_matches();
-    inliers = match_reference(w, ref, map, T_cw, config_.matcher, result);
+    inliers = match_reference_from(w, ref, map, prior, result);
+    if (inliers >= config_.min_frame_inliers) break;
   }
   result.stage = "reference_keyframe";
-  logger_->debug("t={} reference keyframe {}: {} inliers from the last pose, {} from the refined pose",
-                 core::format_seconds(w.frame.t_ns, 6), ref.id, coarse, inliers);
   if (inliers < config_.min_frame_inliers) {
     result.reason = std::to_string(inliers) + " inliers against the reference keyframe";
     return false;

@@ -169,6 +169,7 @@ void Tracker::decide_keyframe(Working& w, const Map& map, const TrackingInputs& 
   }
   c.has_depth = f.bf > 0.0;
   c.local_mapping_idle = inputs.local_mapping_idle;
+  c.local_mapping_queue = inputs.local_mapping_queue;
   c.fps = inputs.fps;
 
   KeyframeDecision d = policy_->decide(c);

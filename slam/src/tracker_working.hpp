@@ -16,6 +16,7 @@ struct Tracker::Working {
   Frame& frame;
   // World points of features matched to the last frame's temporary depth points (not map points).
   std::vector<std::optional<Eigen::Vector3d>> temporary;
+  int temporary_inliers = 0;  // after the last pose optimisation
 
   // Drops the matches pose optimisation flagged as outliers (map points and temporary points).
   void drop_outliers() {

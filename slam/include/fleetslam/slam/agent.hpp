@@ -42,11 +42,15 @@ struct AgentConfig {
   AgentSensor sensor = AgentSensor::kRig;
   FrameBuilderConfig frontend;
   TrackingConfig tracking;
-  KeyframePolicyConfig keyframes;
+  KeyframePolicyConfig keyframes = default_keyframes();
   LocalMappingConfig mapping;
   bool threaded = false;
   int max_mapping_queue = 3;             // threaded: keyframes waiting beyond this are not inserted
   double dropped_frame_periods = 1.5;    // a gap longer than this many frame periods is reported
+
+  // The paper's exponential policy with Q = 2 (tuned on TUM fr1_rpy: Q = 1 takes a keyframe every
+  // ~2 frames there, and keyframes of blurred frames spoil the map; Q = 2 halves them).
+  static KeyframePolicyConfig default_keyframes();
 
   template <class V>
   void visit(V& v) {

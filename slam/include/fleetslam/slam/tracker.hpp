@@ -61,7 +61,8 @@ struct TrackingConfig {
   // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
   bool last_frame_depth_points = true;
 
-  // ORB-SLAM's window for RGB-D / stereo motion-model tracking: 7 px at level 0 (15 monocular).
+  // ORB-SLAM's window for RGB-D / stereo motion-model tracking: 7 px at level 0 (15 monocular);
+  // cross-validation off by default (tracker.cpp says why), matching.cross_validation switches it on.
   static MatcherConfig default_matcher();
 
   // Without `matcher` and `pose_optimizer` (the agent visits those as its own sections).
@@ -133,7 +134,9 @@ class Tracker {
 
   TrackingResult initialize(Frame& frame, const TrackingInputs& inputs);
   bool track_last_frame(Working& w, Map& map, TrackingResult& result);
-  bool track_reference_keyframe(Working& w, Map& map, TrackingResult& result);
+  bool track_reference_keyframe(Working& w, Map& map, TrackingResult& result, bool recovering);
+  int match_reference_from(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw_prior,
+                           TrackingResult& result);
   int match_reference(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw,
                       const MatcherConfig& matcher, TrackingResult& result);
   bool track_local_map(Working& w, Map& map, TrackingResult& result);
