@@ -1,0 +1,121 @@
+// End-to-end tests of `fleetslam replay`: a short stretch of the real TUM excerpt (skipped when
+// ../shared/data is absent) writes every output, and bad input ends with one clear line.
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "fleetslam/core/trajectory.hpp"
+
+namespace fleetslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kData = FLEETSLAM_DATA_DIR;
+const fs::path kTum = kData / "tum" / "rgbd_dataset_freiburg1_rpy_200";
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+RunResult run(const std::string& arguments) {
+  const std::string command = "'" FLEETSLAM_CLI "' " + arguments + " 2>&1";
+  RunResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  std::size_t n = 0;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+fs::path test_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() / "fleetslam_test_replay_cli" / info->name();
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::size_t lines(const fs::path& path) {
+  const std::string text = read_text(path);
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+TEST(ReplayCli, TumExcerptWritesEveryOutput) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path out = test_dir() / "run";
+  const RunResult r = run("-q replay '" + kTum.string() + "' --calibration '" + (kData / "calib" / "TUM1.yaml").string() +
+                          "' --max-frames 30 --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const core::Trajectory trajectory = core::read_trajectory(out / "trajectory.txt");
+  EXPECT_EQ(trajectory.size(), 30u);
+  EXPECT_GE(core::read_trajectory(out / "keyframes.txt").size(), 1u);
+  EXPECT_EQ(lines(out / "timings.csv"), 31u);  // header + one row per frame
+  EXPECT_NE(read_text(out / "timings.csv").find("sequence,t_s,status"), std::string::npos);
+  EXPECT_GE(lines(out / "keyframe_decisions.csv"), 2u);
+  EXPECT_NE(read_text(out / "keyframe_decisions.csv").find("T_H"), std::string::npos);  // exponential factors
+  EXPECT_NE(read_text(out / "config.yaml").find("cross_validation:"), std::string::npos);
+  std::ifstream metrics_file(out / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(metrics_file);
+  EXPECT_EQ(metrics["frames"], 30);
+  ASSERT_TRUE(metrics.contains("ate"));
+  EXPECT_EQ(metrics["ate"]["pairs"], 30);
+  EXPECT_LT(metrics["ate"]["ate_m"]["rmse"].get<double>(), 0.05);
+  EXPECT_GT(metrics["tracking_ms"]["median"].get<double>(), 0.0);
+}
+
+TEST(ReplayCli, ConfigOverridesAndIsWrittenBack) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "agent.yaml") << "keyframes:\n  policy: fixed_interval\n  interval_frames: 5\n"
+                                   << "matching:\n  cross_validation: true\n";
+  const RunResult r = run("-q replay '" + kTum.string() + "' --config '" + (dir / "agent.yaml").string() +
+                          "' --max-frames 12 --out '" + (dir / "run").string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string config = read_text(dir / "run" / "config.yaml");
+  EXPECT_NE(config.find("policy: fixed_interval"), std::string::npos) << config;
+  EXPECT_NE(config.find("cross_validation: true"), std::string::npos) << config;
+  EXPECT_EQ(core::read_trajectory(dir / "run" / "keyframes.txt").size(), 3u);  // frames 0, 5 and 10
+}
+
+TEST(ReplayCli, BadInputEndsWithOneClearLine) {
+  const fs::path dir = test_dir();
+  RunResult r = run("replay '" + (dir / "absent").string() + "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("fleetslam: error: "), std::string::npos) << r.output;
+  if (!fs::exists(kTum)) return;
+  std::ofstream(dir / "bad.yaml") << "tracking:\n  no_such_key: 1\n";
+  r = run("replay '" + kTum.string() + "' --config '" + (dir / "bad.yaml").string() + "' --out '" +
+          (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no_such_key"), std::string::npos) << r.output;
+  r = run("replay '" + kTum.string() + "' --sensor stereo --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // a TUM RGB-D rig has no second camera
+  EXPECT_NE(r.output.find("stereo"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace fleetslam
