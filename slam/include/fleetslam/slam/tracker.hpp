@@ -61,8 +61,8 @@ struct TrackingConfig {
   // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
   bool last_frame_depth_points = true;
 
-  // ORB-SLAM's window for RGB-D / stereo motion-model tracking: 7 px at level 0 (15 monocular);
-  // cross-validation off by default (tracker.cpp says why), matching.cross_validation switches it on.
+  // Window 10 px at level 0 (ORB-SLAM: 7 px for RGB-D / stereo) and cross-validation off by default
+  // (tracker.cpp gives the measurements); matching.cross_validation switches it on.
   static MatcherConfig default_matcher();
 
   // Without `matcher` and `pose_optimizer` (the agent visits those as its own sections).
