@@ -1,7 +1,6 @@
 // The local map stage of tracking and the keyframe decision.
 
 #include <algorithm>
-#include <cmath>
 #include <map>
 #include <set>
 
@@ -51,29 +50,6 @@ std::vector<KeyframeId> local_keyframes(const std::vector<std::pair<KeyframeId, 
   return local;
 }
 
-// Keyframes of the component that look at the same part of the scene as the camera: optical axes within
-// max_angle_rad and centres within max_distance_m, nearest in angle first. Covisibility only links
-// keyframes that already share points; these bring back points of an area the camera returns to, so
-// that it re-tracks them instead of duplicating them (and drifting).
-std::vector<KeyframeId> viewing_keyframes(const Map& map, int component, const Eigen::Isometry3d& T_world_cam,
-                                          const TrackingConfig& config) {
-  std::vector<std::pair<double, KeyframeId>> candidates;
-  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
-  for (const auto& [id, kf] : map.keyframes()) {
-    if (kf.component != component) continue;
-    if ((kf.center() - T_world_cam.translation()).norm() > config.view_max_distance_m) continue;
-    const double angle = std::acos(std::clamp(axis.dot(kf.T_world_cam.linear().col(2)), -1.0, 1.0));
-    if (angle <= config.view_max_angle_rad) candidates.emplace_back(angle, id);
-  }
-  std::sort(candidates.begin(), candidates.end());
-  std::vector<KeyframeId> ids;
-  for (const auto& candidate : candidates) {
-    if (static_cast<int>(ids.size()) >= config.view_keyframes) break;
-    ids.push_back(candidate.second);
-  }
-  return ids;
-}
-
 }  // namespace
 
 bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
@@ -96,11 +72,8 @@ bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
   const Eigen::Isometry3d T_cw = f.T_world_cam->inverse();
   std::vector<ProjectedPoint> projected;
   std::set<MapPointId> considered = in_frame;
-  std::vector<KeyframeId> local =
+  const std::vector<KeyframeId> local =
       local_keyframes(observing, map, config_.local_neighbours_per_keyframe, config_.max_local_keyframes);
-  for (KeyframeId id : viewing_keyframes(map, component_, *f.T_world_cam, config_)) {
-    if (std::find(local.begin(), local.end(), id) == local.end()) local.push_back(id);
-  }
   for (KeyframeId kf_id : local) {
     for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
       if (id == kNoMapPoint || !considered.insert(id).second) continue;

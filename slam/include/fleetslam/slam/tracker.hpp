@@ -52,11 +52,6 @@ struct TrackingConfig {
   int recovery_frames = 5;            // lost frames that retry the reference keyframe before a new map
   int local_neighbours_per_keyframe = 10;
   int max_local_keyframes = 80;
-  // Keyframes viewing the same area (axes within view_max_angle_rad, centres within view_max_distance_m)
-  // join the local map even when they share no point with it yet, up to view_keyframes of them.
-  int view_keyframes = 10;
-  double view_max_angle_rad = 0.5;
-  double view_max_distance_m = 1.0;
   // ORB-SLAM's temporary visual-odometry points: the last frame's close depth features without a map
   // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
   bool last_frame_depth_points = true;
@@ -78,9 +73,6 @@ struct TrackingConfig {
     v("recovery_frames", recovery_frames, core::Limits<int>{0, 100000});
     v("local_neighbours_per_keyframe", local_neighbours_per_keyframe, core::Limits<int>{0, 1000});
     v("max_local_keyframes", max_local_keyframes, core::Limits<int>{1, 10000});
-    v("view_keyframes", view_keyframes, core::Limits<int>{0, 10000});
-    v("view_max_angle_rad", view_max_angle_rad, core::Limits<double>{0.0, 3.2});
-    v("view_max_distance_m", view_max_distance_m, core::Limits<double>{0.0, 1e6});
     v("last_frame_depth_points", last_frame_depth_points);
   }
 };
