@@ -121,6 +121,26 @@ TEST(AgentSynthetic, DeterministicModeRepeatsBitForBit) {
   EXPECT_EQ(a.stats.points, b.stats.points);
 }
 
+TEST(AgentSynthetic, TwoAgentsInOneProcessShareNothing) {
+  const auto& all = sequence(core::SensorMode::kRgbd);
+  const std::vector<core::SensorFrame> frames(all.begin(), all.begin() + 30);
+  const AgentRun alone = run_agent(AgentConfig{}, test::synthetic_rgbd_rig(), frames);
+  // Interleaved with a second agent (another camera: the stereo rig) frame by frame.
+  Agent a(AgentConfig{}, test::synthetic_rgbd_rig(), core::null_logger());
+  Agent b(AgentConfig{}, test::synthetic_stereo_rig(), core::null_logger());
+  const auto& stereo = sequence(core::SensorMode::kStereo);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    a.process(frames[i]);
+    b.process(stereo[i]);
+  }
+  const core::Trajectory together = a.trajectory();
+  ASSERT_EQ(together.size(), alone.trajectory.size());
+  for (std::size_t i = 0; i < together.size(); ++i) {
+    EXPECT_TRUE(together[i].T_world_body.matrix() == alone.trajectory[i].T_world_body.matrix()) << i;
+  }
+  EXPECT_EQ(b.trajectory().size(), frames.size());
+}
+
 TEST(AgentSynthetic, ThreadedModeTracks) {
   const auto& frames = sequence(core::SensorMode::kRgbd);
   AgentConfig config;
