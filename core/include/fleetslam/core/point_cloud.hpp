@@ -1,0 +1,63 @@
+#pragma once
+// A coloured point cloud as a value: what dense mapping produces, what the central unit merges, and
+// what the simulator's ground-truth surfaces are compared against. Positions are float (millimetre
+// precision over kilometres is more than any map here needs, and it halves memory against double);
+// the frame the points are in is the owner's business and goes into variable names (`cloud_world`).
+// PCL stays out of this header: modules that use PCL convert in their .cpp files.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace fleetslam::core {
+
+struct PointCloud {
+  using Rgb = std::array<std::uint8_t, 3>;  // red, green, blue
+
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Rgb> colors;  // empty, or one per point
+
+  std::size_t size() const { return points.size(); }
+  bool empty() const { return points.empty(); }
+  bool has_colors() const { return !colors.empty() && colors.size() == points.size(); }
+  void reserve(std::size_t n, bool with_colors = true);
+  void clear();
+  void push_back(const Eigen::Vector3f& p);
+  void push_back(const Eigen::Vector3f& p, const Rgb& rgb);
+  // Appends `other`; colours are kept only when both clouds have them (or this one is empty).
+  void append(const PointCloud& other);
+};
+
+// Points mapped by T (p' = T * p); colours unchanged.
+PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T);
+void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T);
+
+// Drops points with a NaN or infinite coordinate; returns how many were dropped.
+std::size_t remove_non_finite(PointCloud& cloud);
+
+// Axis-aligned bounds of the finite points; both zero for an empty cloud.
+struct Bounds3f {
+  Eigen::Vector3f min = Eigen::Vector3f::Zero();
+  Eigen::Vector3f max = Eigen::Vector3f::Zero();
+};
+Bounds3f bounds(const PointCloud& cloud);
+
+// PLY (binary little-endian or ASCII; x y z as float, optional red green blue as uchar) and PCD
+// (binary or ASCII; x y z [rgb]). Writers create parent folders; readers accept what the writers
+// produce plus the common variants (double coordinates, extra properties ignored, vertex normals) and
+// throw InputError naming the file and what is wrong (bad header, truncated body, unknown format).
+enum class CloudEncoding { kBinary, kAscii };
+void write_ply(const std::string& path, const PointCloud& cloud, CloudEncoding encoding = CloudEncoding::kBinary);
+void write_pcd(const std::string& path, const PointCloud& cloud, CloudEncoding encoding = CloudEncoding::kBinary);
+PointCloud read_ply(const std::string& path);
+PointCloud read_pcd(const std::string& path);
+// By extension (.ply / .pcd); anything else is an InputError.
+void write_point_cloud(const std::string& path, const PointCloud& cloud);
+PointCloud read_point_cloud(const std::string& path);
+
+}  // namespace fleetslam::core

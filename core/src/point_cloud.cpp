@@ -1,0 +1,74 @@
+#include "fleetslam/core/point_cloud.hpp"
+
+#include <cmath>
+
+namespace fleetslam::core {
+
+void PointCloud::reserve(std::size_t n, bool with_colors) {
+  points.reserve(n);
+  if (with_colors) colors.reserve(n);
+}
+
+void PointCloud::clear() {
+  points.clear();
+  colors.clear();
+}
+
+void PointCloud::push_back(const Eigen::Vector3f& p) { points.push_back(p); }
+
+void PointCloud::push_back(const Eigen::Vector3f& p, const Rgb& rgb) {
+  points.push_back(p);
+  colors.push_back(rgb);
+}
+
+void PointCloud::append(const PointCloud& other) {
+  const bool keep_colors = (empty() || has_colors()) && other.has_colors();
+  if (!keep_colors) colors.clear();
+  points.insert(points.end(), other.points.begin(), other.points.end());
+  if (keep_colors) colors.insert(colors.end(), other.colors.begin(), other.colors.end());
+}
+
+void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  for (Eigen::Vector3f& p : cloud.points) p = R * p + t;
+}
+
+PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T) {
+  PointCloud out = cloud;
+  transform_in_place(out, T);
+  return out;
+}
+
+std::size_t remove_non_finite(PointCloud& cloud) {
+  const bool colored = cloud.has_colors();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    if (!cloud.points[i].allFinite()) continue;
+    cloud.points[kept] = cloud.points[i];
+    if (colored) cloud.colors[kept] = cloud.colors[i];
+    ++kept;
+  }
+  const std::size_t dropped = cloud.points.size() - kept;
+  cloud.points.resize(kept);
+  if (colored) cloud.colors.resize(kept);
+  return dropped;
+}
+
+Bounds3f bounds(const PointCloud& cloud) {
+  Bounds3f b;
+  bool any = false;
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (!p.allFinite()) continue;
+    if (!any) {
+      b.min = b.max = p;
+      any = true;
+    } else {
+      b.min = b.min.cwiseMin(p);
+      b.max = b.max.cwiseMax(p);
+    }
+  }
+  return b;
+}
+
+}  // namespace fleetslam::core
