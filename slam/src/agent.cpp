@@ -53,8 +53,12 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
       logger(std::move(l)),
       builder(c.frontend, rig),
       tracker(c.tracking, c.keyframes, logger),
-      mapper(c.mapping, logger) {
-  if (config.threaded) worker = std::make_unique<MappingWorker>(mapper, map, map_mutex, changes, logger);
+      mapper(c.mapping, logger),
+      dense(c.dense, builder) {
+  if (config.threaded) {
+    if (config.dense.enabled) dense_worker = std::make_unique<DenseWorker>(dense, logger);
+    worker = std::make_unique<MappingWorker>(mapper, map, map_mutex, changes, logger);
+  }
 }
 
 Agent::Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger) {
@@ -69,7 +73,28 @@ Agent& Agent::operator=(Agent&&) noexcept = default;
 const AgentConfig& Agent::config() const { return impl_->config; }
 
 void Agent::finish() {
-  if (impl_->worker) impl_->worker->wait_idle();
+  Impl& s = *impl_;
+  if (s.worker) s.worker->wait_idle();
+  if (s.dense_worker) {
+    s.dense_worker->wait_idle();
+    const std::lock_guard<std::mutex> lock(s.map_mutex);
+    for (const auto& [id, cloud] : s.dense_worker->take_ready()) s.insert_dense(id, cloud);
+  }
+}
+
+core::PointCloud Agent::dense_cloud() const {
+  const Impl& s = *impl_;
+  const std::lock_guard<std::mutex> lock(s.map_mutex);
+  return s.dense.cloud_world([&s](KeyframeId id) -> std::optional<Eigen::Isometry3d> {
+    const Keyframe* kf = s.map.keyframe(id);
+    if (kf == nullptr) return std::nullopt;
+    return kf->T_world_cam;
+  });
+}
+
+DenseStats Agent::dense_stats() const {
+  const std::lock_guard<std::mutex> lock(impl_->map_mutex);
+  return impl_->dense.stats();
 }
 
 TrackingState Agent::state() const {
@@ -107,6 +132,9 @@ AgentUpdate Agent::process(const core::SensorFrame& sensor) {
   {
     const std::lock_guard<std::mutex> lock(s.map_mutex);
     s.track_and_map(built.frame, u);
+    const Stopwatch dense;
+    s.update_dense(sensor);
+    u.timings.dense_ms = dense.elapsed_ms();
     s.report_changes(u);
   }
   if (!notes.empty()) u.reason = u.reason.empty() ? notes : u.reason + "; " + notes;

@@ -89,7 +89,7 @@ void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, A
   changes.record(report);
 }
 
-KeyframeSnapshot Agent::Impl::snapshot(const Keyframe& kf) const {
+KeyframeSnapshot Agent::Impl::snapshot(const Keyframe& kf, bool with_dense) const {
   KeyframeSnapshot s;
   s.id = kf.id;
   s.t_ns = kf.t_ns;
@@ -101,18 +101,60 @@ KeyframeSnapshot Agent::Impl::snapshot(const Keyframe& kf) const {
     s.point_ids.push_back(id);
     s.points_world.push_back(p->position);
   }
+  if (with_dense) {
+    const core::PointCloud* cloud = dense.keyframe_cloud_of(kf.id);
+    s.dense_cam = cloud == nullptr ? core::PointCloud{} : core::transformed(*cloud, builder.T_cam0_rect0());
+  }
   return s;
 }
 
-void Agent::Impl::report_changes(AgentUpdate& u) {
+void Agent::Impl::insert_dense(KeyframeId id, const core::PointCloud& cloud_cam) {
+  if (const Keyframe* kf = map.keyframe(id)) {
+    dense.add_keyframe(id, kf->T_world_cam, cloud_cam);
+    dense_changed.insert(id);
+    return;
+  }
+  // Culled while its cloud was being computed: the points go to the keyframe that inherited it.
+  const std::optional<Eigen::Isometry3d> T_world_kf = map.keyframe_pose(id);
+  const auto heir = map.live_keyframe(id);
+  if (!T_world_kf || !heir) return;
+  dense.add_keyframe(id, *T_world_kf, cloud_cam);
+  dense.remove_keyframe(id, heir);
+  dense_changed.insert(heir->first);
+}
+
+void Agent::Impl::update_dense(const core::SensorFrame& sensor) {
+  if (!config.dense.enabled) return;
   for (KeyframeId id : new_keyframes) {
-    if (const Keyframe* kf = map.keyframe(id)) u.new_keyframes.push_back(snapshot(*kf));
+    if (dense_worker) {
+      dense_worker->push(id, sensor);
+    } else {
+      insert_dense(id, dense.keyframe_cloud(sensor));
+    }
+  }
+  if (dense_worker) {
+    for (const auto& [id, cloud] : dense_worker->take_ready()) insert_dense(id, cloud);
+  }
+}
+
+void Agent::Impl::report_changes(AgentUpdate& u) {
+  for (KeyframeId id : changes.removed) {
+    dense_changed.erase(id);
+    const auto heir = map.live_keyframe(id);
+    dense.remove_keyframe(id, heir);
+    if (heir && dense.keyframe_cloud_of(heir->first) != nullptr) dense_changed.insert(heir->first);
+  }
+  for (KeyframeId id : new_keyframes) {
+    if (const Keyframe* kf = map.keyframe(id)) u.new_keyframes.push_back(snapshot(*kf, dense_changed.count(id) > 0));
     changes.changed.erase(id);
+    dense_changed.erase(id);
   }
   new_keyframes.clear();
+  changes.changed.insert(dense_changed.begin(), dense_changed.end());
   for (KeyframeId id : changes.changed) {
-    if (const Keyframe* kf = map.keyframe(id)) u.changed_keyframes.push_back(snapshot(*kf));
+    if (const Keyframe* kf = map.keyframe(id)) u.changed_keyframes.push_back(snapshot(*kf, dense_changed.count(id) > 0));
   }
+  dense_changed.clear();
   u.removed_keyframes = std::move(changes.removed);
   changes.changed.clear();
   changes.removed.clear();

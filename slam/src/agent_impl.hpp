@@ -4,10 +4,12 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "fleetslam/slam/agent.hpp"
+#include "dense_worker.hpp"
 #include "mapping_worker.hpp"
 
 namespace fleetslam::slam {
@@ -29,7 +31,11 @@ struct Agent::Impl {
   void track_and_map(Frame& frame, AgentUpdate& u);
   void insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference);
   void report_changes(AgentUpdate& u);
-  KeyframeSnapshot snapshot(const Keyframe& kf) const;
+  // Dense clouds of the keyframes inserted in this call (inline, or queued to the dense worker) and
+  // those the worker finished; culled keyframes hand their points over in report_changes.
+  void update_dense(const core::SensorFrame& sensor);
+  void insert_dense(KeyframeId id, const core::PointCloud& cloud_cam);
+  KeyframeSnapshot snapshot(const Keyframe& kf, bool with_dense) const;
   // Pose of cam0 for a pose of the camera the frames live in (the rectified left camera for stereo).
   Eigen::Isometry3d to_cam0(const Eigen::Isometry3d& T_world_cam) const;
 
@@ -39,12 +45,15 @@ struct Agent::Impl {
   FrameBuilder builder;
   Tracker tracker;
   LocalMapper mapper;
+  DenseMapper dense;
   Map map;
   mutable std::mutex map_mutex;
   MappingChanges changes;                    // guarded by map_mutex
   std::vector<FrameRecord> records;          // guarded by map_mutex
   std::vector<KeyframeId> new_keyframes;     // inserted during the current process() call
+  std::set<KeyframeId> dense_changed;        // dense cloud to send with the next snapshot
   std::optional<core::TimeNs> last_t_ns;
+  std::unique_ptr<DenseWorker> dense_worker; // threaded mode only; stops before `dense` goes
   std::unique_ptr<MappingWorker> worker;     // threaded mode only; last, so it stops first
 };
 

@@ -38,6 +38,7 @@ MapStats Agent::map_stats() const {
   std::set<int> components;
   for (const auto& entry : s.map.keyframes()) components.insert(entry.second.component);
   stats.components = static_cast<int>(components.size());
+  stats.dense_points = s.dense.stats().points;
   return stats;
 }
 

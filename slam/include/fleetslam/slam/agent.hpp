@@ -26,6 +26,8 @@
 #include "fleetslam/core/sensor_frame.hpp"
 #include "fleetslam/core/sensor_rig.hpp"
 #include "fleetslam/core/trajectory.hpp"
+#include "fleetslam/core/point_cloud.hpp"
+#include "fleetslam/slam/dense_mapping.hpp"
 #include "fleetslam/slam/frame_builder.hpp"
 #include "fleetslam/slam/keyframe_policy.hpp"
 #include "fleetslam/slam/local_mapping.hpp"
@@ -44,6 +46,7 @@ struct AgentConfig {
   TrackingConfig tracking;
   KeyframePolicyConfig keyframes = default_keyframes();
   LocalMappingConfig mapping;
+  DenseMappingConfig dense;
   bool threaded = false;
   int max_mapping_queue = 3;             // threaded: keyframes waiting beyond this are not inserted
   double dropped_frame_periods = 1.5;    // a gap longer than this many frame periods is reported
@@ -62,6 +65,7 @@ struct AgentConfig {
     v("keyframes", keyframes);
     v("tracking", tracking);
     v("mapping", mapping);
+    v("dense", dense);
     v("threaded", threaded);
     v("max_mapping_queue", max_mapping_queue, core::Limits<int>{1, 1000});
     v("dropped_frame_periods", dropped_frame_periods, core::Limits<double>{1.0, 1000.0});
@@ -77,7 +81,7 @@ enum class FrameStatus {
 };
 std::string to_string(FrameStatus status);  // "tracked", "initialized", "not_initialized", "lost", "rejected"
 
-// A keyframe as the central unit sees it: pose (cam0) and its map points.
+// A keyframe as the central unit sees it: pose (cam0), its map points, and its dense points.
 struct KeyframeSnapshot {
   KeyframeId id = -1;
   core::TimeNs t_ns = 0;
@@ -85,6 +89,10 @@ struct KeyframeSnapshot {
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
   std::vector<MapPointId> point_ids;
   std::vector<Eigen::Vector3d> points_world;
+  // The keyframe's whole dense cloud in its cam0 frame, sent when it is new or changed (the keyframe's
+  // cloud arrived from the threaded dense worker, or a culled keyframe handed its points to this one);
+  // absent when unchanged since the last snapshot that carried it. Receivers replace what they hold.
+  std::optional<core::PointCloud> dense_cam;
 };
 
 struct AgentTimings {
@@ -94,6 +102,7 @@ struct AgentTimings {
   double local_map_ms = 0.0;   // local map projection search
   double tracking_ms = 0.0;    // extract + everything tracking did (the per-frame tracking cost)
   double mapping_ms = 0.0;     // inline local mapping (deterministic mode, keyframes only)
+  double dense_ms = 0.0;       // dense mapping in this call (inline back-projection, insertion)
   double total_ms = 0.0;       // the whole process() call
 };
 
@@ -122,6 +131,7 @@ struct MapStats {
   std::size_t keyframes = 0;
   std::size_t points = 0;
   int components = 0;
+  std::size_t dense_points = 0;
 };
 
 class Agent {
@@ -135,7 +145,8 @@ class Agent {
   Agent& operator=(const Agent&) = delete;
 
   AgentUpdate process(const core::SensorFrame& frame);
-  // Threaded mode: waits until local mapping has handled every queued keyframe. No-op otherwise.
+  // Threaded mode: waits until local mapping and dense mapping have handled every queued keyframe and
+  // inserts the last dense clouds. No-op otherwise.
   void finish();
 
   // Every tracked frame, cam0, each pose relative to its reference keyframe so it follows the
@@ -145,6 +156,10 @@ class Agent {
   core::Trajectory keyframe_trajectory() const;
   TrackingState state() const;
   MapStats map_stats() const;
+  // The dense map in the world frame (cam0 of the first tracked frame), each keyframe's points moved by
+  // its current pose.
+  core::PointCloud dense_cloud() const;
+  DenseStats dense_stats() const;
   const AgentConfig& config() const;
 
  private:
