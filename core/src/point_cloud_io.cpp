@@ -4,8 +4,10 @@
 // properties, "end_header". Only the vertex element is read (x y z, colour from red|r|diffuse_red ...);
 // elements before it are skipped row by row, elements after it are not read at all.
 // PCD (v0.5-0.7): header keys FIELDS SIZE TYPE COUNT WIDTH HEIGHT POINTS DATA; DATA ascii, binary or
-// binary_compressed (LZF, fields stored one after the other). Colour is the packed "rgb" (float bits of
-// 0x00RRGGBB, PCL's convention; ASCII writes it as an unsigned integer like PCL) or "rgba" (uint32).
+// binary_compressed (LZF, fields stored one after the other). Colour is the packed "rgb" or "rgba",
+// 0xAARRGGBB in 4 bytes (TYPE U as PCL 1.13 writes it, or TYPE F holding those bits as older files do;
+// an ASCII F value may be the integer or the float); alpha is written 255 and ignored on reading.
+// Checked against PCL 1.13's pcl::io readers and writers (PointXYZRGB, every encoding) both ways.
 // Both writers produce x y z as float; the readers convert any numeric type to float.
 
 #include <algorithm>
@@ -145,8 +147,9 @@ std::uint8_t to_channel(double value, Scalar type) {
   return static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
 }
 
+// 0xAARRGGBB with alpha 255, as PCL's PointXYZRGB stores it.
 std::uint32_t pack_rgb(const PointCloud::Rgb& rgb) {
-  return (std::uint32_t{rgb[0]} << 16) | (std::uint32_t{rgb[1]} << 8) | std::uint32_t{rgb[2]};
+  return 0xff000000u | (std::uint32_t{rgb[0]} << 16) | (std::uint32_t{rgb[1]} << 8) | std::uint32_t{rgb[2]};
 }
 
 PointCloud::Rgb unpack_rgb(std::uint32_t packed) {
@@ -684,7 +687,7 @@ PointCloud read_pcd_binary(const std::string& file, const PcdHeader& header, con
 std::string pcd_header_text(const PointCloud& cloud, CloudEncoding encoding) {
   const bool rgb = cloud.has_colors();
   std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n";
-  header += rgb ? "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+  header += rgb ? "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
                 : "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
   header += "WIDTH " + std::to_string(cloud.size()) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n";
   header += "POINTS " + std::to_string(cloud.size()) + "\n";
@@ -768,7 +771,7 @@ void write_pcd(const std::string& path, const PointCloud& cloud, CloudEncoding e
     const Eigen::Vector3f& p = cloud.points[i];
     if (encoding == CloudEncoding::kBinary) {
       for (int axis = 0; axis < 3; ++axis) append_raw(data, p[axis]);
-      if (rgb) append_raw(data, pack_rgb(cloud.colors[i]));  // the uint32's bytes are the float's bytes
+      if (rgb) append_raw(data, pack_rgb(cloud.colors[i]));
       continue;
     }
     for (int axis = 0; axis < 3; ++axis) {

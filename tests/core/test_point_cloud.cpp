@@ -149,11 +149,11 @@ TEST(PointCloudIo, WritersUseTheDocumentedHeaders) {
             "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
             "1 2 3 10 20 30\n");
   write_pcd((dir / "a.pcd").string(), cloud, CloudEncoding::kAscii);
-  // PCL's convention: rgb is a float field holding 0x00RRGGBB; ASCII prints it as an unsigned integer.
+  // PCL 1.13's convention: rgb is an unsigned 4-byte field holding 0xAARRGGBB.
   EXPECT_EQ(read_bytes(dir / "a.pcd"),
             "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\n"
-            "TYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n"
-            "1 2 3 660510\n");
+            "TYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n"
+            "1 2 3 4278850590\n");
   write_ply((dir / "b.ply").string(), cloud);  // binary by default: header + 3 floats + 3 bytes
   const std::string binary = read_bytes(dir / "b.ply");
   EXPECT_NE(binary.find("format binary_little_endian 1.0\n"), std::string::npos);
