@@ -46,6 +46,8 @@ constexpr std::size_t kHeaderBytes = 56;
 constexpr std::size_t kBytes = kDescriptorBytes;
 
 std::string read_file(const fs::path& file) {
+  std::error_code ec;
+  if (fs::is_directory(file, ec)) throw InputError(file.string(), "a folder, not a vocabulary file");
   std::ifstream in(file, std::ios::binary | std::ios::ate);
   if (!in) throw InputError(file.string(), "cannot open the vocabulary file");
   const std::streamoff size = in.tellg();
