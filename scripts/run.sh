@@ -19,7 +19,7 @@ fi
 "$cli" dataset info "$data/euroc/V1_01_easy_micro" \
   --groundtruth "$data/euroc/V1_01_easy_micro/groundtruth_leftcam_tum.txt"
 rm -rf "$out/replay_tum_fr1_rpy" "$out/office_tum"
-"$cli" replay "$data/tum/rgbd_dataset_freiburg1_rpy_200" --out "$out/replay_tum_fr1_rpy"
+"$cli" replay "$data/tum/rgbd_dataset_freiburg1_rpy_200" --calibration "$data/calib/TUM1.yaml" --out "$out/replay_tum_fr1_rpy"
 "$cli" eval --gt "$data/tum/rgbd_dataset_freiburg1_rpy_200/groundtruth.txt" \
   --est "$out/replay_tum_fr1_rpy/trajectory.txt" --out "$out/replay_tum_fr1_rpy/eval"
 "$cli" generate scenes/office/office_2robots.yaml --format tum --duration 5 --out "$out/office_tum"

@@ -6,6 +6,7 @@
 //   timings.csv              per frame: status, feature counts, stage timings
 //   keyframe_decisions.csv   per tracked frame: the keyframe policy's decision and its factors
 //   config.yaml              the effective agent config
+//   dense_map.ply            the agent's dense map (world = cam0 of the first tracked frame), when it has one
 //   metrics.json             frame counts, timing statistics and (with ground truth) the ATE
 
 #include <unistd.h>
@@ -30,6 +31,7 @@
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/orbslam_settings.hpp"
+#include "fleetslam/core/point_cloud.hpp"
 #include "fleetslam/core/trajectory.hpp"
 #include "fleetslam/core/trajectory_metrics.hpp"
 #include "fleetslam/slam/agent.hpp"
@@ -212,6 +214,8 @@ struct RunResult {
   core::Trajectory keyframes;
   core::Trajectory per_frame_groundtruth;
   slam::MapStats map;
+  slam::DenseStats dense_stats;
+  core::PointCloud dense;
   RunLog log;
   std::size_t frames = 0;
 };
@@ -230,6 +234,8 @@ RunResult run_agent(slam::Agent& agent, core::FrameSource& source, const core::L
   run.estimate = agent.trajectory();
   run.keyframes = agent.keyframe_trajectory();
   run.map = agent.map_stats();
+  run.dense_stats = agent.dense_stats();
+  run.dense = agent.dense_cloud();
   return run;
 }
 
@@ -250,6 +256,7 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
   }
   std::printf(")\nmap:          %zu keyframes, %zu points, %d component(s)\n", run.map.keyframes, run.map.points,
               run.map.components);
+  std::printf("dense map:    %zu points (%zu back-projected)\n", run.dense_stats.points, run.dense_stats.back_projected);
   const nlohmann::json tracking = stats_json(run.log.tracking_ms());
   if (!tracking.is_null()) {
     std::printf("tracking:     median %.1f ms, p90 %.1f ms per frame\n", tracking["median"].get<double>(),
@@ -259,8 +266,8 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
     std::printf("ATE RMSE:     %.4f m (%zu pairs, se3 alignment)\n", ate->stats.rmse, ate->pairs.size());
   }
   std::printf("wrote:        %s/{trajectory.txt,keyframes.txt,timings.csv,keyframe_decisions.csv,config.yaml,"
-              "metrics.json}\n",
-              out.string().c_str());
+              "metrics.json%s}\n",
+              out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply");
 }
 
 void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
@@ -280,11 +287,14 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   core::write_trajectory(out / "trajectory.txt", run.estimate, core::TrajectoryFormat::kTum);
   core::write_trajectory(out / "keyframes.txt", run.keyframes, core::TrajectoryFormat::kTum);
   run.log.write(out);
+  if (!run.dense.empty()) core::write_ply(out / "dense_map.ply", run.dense);
 
   nlohmann::json metrics = {{"command", "fleetslam replay"}, {"dataset", o.dataset},
                             {"frames", run.frames}, {"status_counts", run.log.status_counts()},
                             {"keyframes", run.map.keyframes}, {"map_points", run.map.points},
                             {"components", run.map.components},
+                            {"dense_points", run.dense_stats.points},
+                            {"dense_back_projected", run.dense_stats.back_projected},
                             {"tracking_ms", stats_json(run.log.tracking_ms())},
                             {"total_ms", stats_json(run.log.total_ms())}};
   std::optional<core::AteResult> ate;
