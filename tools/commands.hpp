@@ -28,4 +28,8 @@ void add_generate_command(CLI::App& app, const GlobalOptions& global);
 // a recorded sequence; write its trajectories, timings, keyframe decisions, config and ATE to DIR.
 void add_replay_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam vocab train --images DIR... | --dataset DIR... --out FILE [--k 10 --levels 5 --features 1000
+// --max-images N --seed S]: train a bag-of-words vocabulary from ORB features; fleetslam vocab info FILE.
+void add_vocab_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools
