@@ -72,13 +72,11 @@ std::vector<fs::path> list_images(const fs::path& folder) {
   return images;
 }
 
-// Which of `total` images to use: all, or `max_images` evenly spaced ones.
-std::vector<bool> select_images(std::size_t total, std::int64_t max_images) {
-  std::vector<bool> keep(total, max_images < 0 || static_cast<std::size_t>(max_images) >= total);
-  if (max_images < 0 || static_cast<std::size_t>(max_images) >= total) return keep;
+// Every stride-th image of the concatenated sources is used: stride ceil(total / max_images), or 1 for all.
+std::size_t image_stride(std::size_t total, std::int64_t max_images) {
+  if (max_images <= 0 || static_cast<std::size_t>(max_images) >= total) return 1;
   const auto n = static_cast<std::size_t>(max_images);
-  for (std::size_t j = 0; j < n; ++j) keep[j * total / n] = true;
-  return keep;
+  return (total + n - 1) / n;
 }
 
 // ORB descriptors of every selected image, folders first (in the order given), then datasets (cam0).
@@ -93,24 +91,22 @@ class DescriptorCollector {
       if (found.empty()) throw InputError(folder, "no png/jpg images in the folder");
       files.insert(files.end(), found.begin(), found.end());
     }
-    std::vector<std::unique_ptr<core::FrameSource>> sources;
+    // Sequence lengths from their lists alone (no image decoded), then the selection.
     std::size_t total = files.size();
+    std::vector<std::size_t> offsets;
     for (const std::string& dataset : o_.datasets) {
-      sources.push_back(open(dataset));
-      total += sources.back()->size();
+      offsets.push_back(total);
+      total += open(dataset, false, 0, 1)->size();
     }
     if (total == 0) throw InputError("vocab train", "no images: give --images folders or --dataset sequences");
-    const std::vector<bool> keep = select_images(total, o_.max_images);
-    progress_ = std::make_unique<core::Progress>("ORB extraction", static_cast<std::size_t>(std::count(keep.begin(), keep.end(), true)),
+    const std::size_t stride = image_stride(total, o_.max_images);
+    progress_ = std::make_unique<core::Progress>("ORB extraction", (total + stride - 1) / stride,
                                                  core::Progress::log_sink(logger_));
-    std::size_t index = 0;
-    for (const fs::path& file : files) {
-      if (keep[index++]) add(read_image(file), file.string());
-    }
-    for (std::size_t s = 0; s < sources.size(); ++s) {
-      while (auto frame = sources[s]->next()) {
-        if (keep[index++]) add(frame->image, frame->image_path.empty() ? o_.datasets[s] : frame->image_path);
-      }
+    for (std::size_t i = 0; i < files.size(); i += stride) add(read_image(files[i]), files[i].string());
+    for (std::size_t s = 0; s < o_.datasets.size(); ++s) {
+      const std::size_t start = (stride - offsets[s] % stride) % stride;  // first global index on the stride
+      const auto source = open(o_.datasets[s], true, start, stride);
+      while (auto frame = source->next()) add(frame->image, frame->image_path.empty() ? o_.datasets[s] : frame->image_path);
     }
     progress_->finish();
     return std::move(descriptors_);
@@ -123,13 +119,17 @@ class DescriptorCollector {
     return config;
   }
 
-  std::unique_ptr<core::FrameSource> open(const std::string& dataset) const {
+  std::unique_ptr<core::FrameSource> open(const std::string& dataset, bool images, std::size_t start,
+                                          std::size_t stride) const {
     core::DatasetConfig config;
+    config.load_images = images;
     config.load_imu = false;
     config.stereo = false;
+    config.start_index = static_cast<std::int64_t>(start);
+    config.stride = static_cast<std::int64_t>(stride);
     std::optional<core::DatasetFormat> format;
     if (!o_.format.empty()) format = core::dataset_format_from_string(o_.format);
-    return core::open_dataset(dataset, format, config, logger_);
+    return core::open_dataset(dataset, format, config, images ? logger_ : core::null_logger());
   }
 
   static cv::Mat read_image(const fs::path& file) {
@@ -236,7 +236,7 @@ void add_vocab_command(CLI::App& app, const GlobalOptions& global) {
   train->add_option("--k", options->k, "Branching factor")->capture_default_str();
   train->add_option("--levels", options->levels, "Depth levels L")->capture_default_str();
   train->add_option("--features", options->features, "ORB features per image")->capture_default_str()->check(CLI::Range(10, 100000));
-  train->add_option("--max-images", options->max_images, "Use at most N images, evenly spaced (-1: all)");
+  train->add_option("--max-images", options->max_images, "Use at most N images: every ceil(total / N)-th (-1: all)");
   train->add_option("--seed", options->seed, "Seed of the k-means++ seeding")->capture_default_str()->check(CLI::NonNegativeNumber);
   train->callback([options, &global] { run_train(*options, global); });
 
