@@ -1,0 +1,116 @@
+#pragma once
+// The central unit's multi-map matching and dense map (PAPER.md section 4): every robot's dense cloud is
+// mapped into the world by its initial-pose prior T_world_robot (coarse), registered by GICP on the
+// overlap sets (fine), and the merged cloud is uniformly sampled and Gaussian filtered.
+//
+// Order: robots[0] is the reference (its prior is taken as exact). Every other robot is matched against
+// the merged cloud so far (all robots already placed), not against robot 0 alone: a robot that overlaps
+// robot 2 but not robot 0 is still registered, and each registration sees the most data. Robots are tried
+// in input order; one without enough overlap waits while others are placed and is tried again when the
+// merged cloud has grown. When a whole pass places nobody, the first waiting robot keeps its coarse
+// (prior) pose and joins the merged cloud; the others are tried against it in turn.
+//
+// Bad input is handled per robot and never affects the others: non-finite points are removed and
+// counted, an empty cloud contributes nothing, a prior that is not a finite rigid transform leaves the
+// robot out, a robot that never overlaps keeps its prior, a registration that fails (or ends with too
+// few inliers) is discarded and the prior kept. Each case is logged and has its status in the report.
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "fleetslam/central/filtering.hpp"
+#include "fleetslam/central/overlap.hpp"
+#include "fleetslam/central/registration.hpp"
+#include "fleetslam/central/sampling.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/core/point_cloud.hpp"
+
+namespace fleetslam::central {
+
+// One robot's dense map in its own map frame, with the prior that places it in the world.
+struct RobotCloud {
+  int robot_id = 0;
+  core::PointCloud cloud_robot;
+  Eigen::Isometry3d T_world_robot_prior = Eigen::Isometry3d::Identity();
+};
+
+struct MapMergerConfig {
+  OverlapConfig coarse;
+  RegistrationConfig registration;  // fine matching (registration.enabled false: coarse only)
+  int min_overlap_points = 100;     // fewer mutual pairs: no fine matching, the robot waits (see above)
+  double min_inlier_ratio = 0.5;    // a GICP result with fewer inliers is discarded
+  UniformSamplingConfig sampling;
+  GaussianFilterConfig filter;
+
+  template <class V>
+  void visit(V& v) {
+    v("coarse", coarse);
+    v("registration", registration);
+    v("min_overlap_points", min_overlap_points, core::Limits<int>{1, 1 << 30});
+    v("min_inlier_ratio", min_inlier_ratio, core::Limits<double>{0.0, 1.0});
+    v("sampling", sampling);
+    v("filter", filter);
+  }
+};
+
+struct RobotMergeReport {
+  int robot_id = 0;
+  std::size_t points = 0;              // finite points the robot contributed (before sampling)
+  std::size_t non_finite_removed = 0;
+  Eigen::Isometry3d T_world_robot_prior = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (the prior when not fine matched)
+  bool placed = false;                 // in the merged cloud
+  bool fine_matched = false;           // a GICP correction was applied
+  // Coarse matching against the merged cloud at the robot's last attempt: mutual pairs in all, and per
+  // robot already placed (robot id, pairs) -- the per-pair overlap sizes.
+  std::size_t overlap_points = 0;
+  double overlap_mean_distance_m = 0.0;
+  std::vector<std::pair<int, std::size_t>> overlap_with;
+  RegistrationResult registration;     // when GICP ran (status empty otherwise)
+  std::string status;                  // "reference", "fine matched", "no overlap: prior kept", ...
+};
+
+struct MergeTimings {
+  double coarse_ms = 0.0;
+  double registration_ms = 0.0;
+  double sampling_ms = 0.0;
+  double filter_ms = 0.0;
+  double total_ms = 0.0;
+};
+
+struct MergeResult {
+  core::PointCloud cloud_world;        // merged, sampled, filtered
+  std::vector<RobotMergeReport> robots;  // input order
+  std::size_t points_before_sampling = 0;
+  std::size_t points_after_sampling = 0;
+  std::size_t points_after_filter = 0;
+  MergeTimings timings;
+};
+
+class MapMerger {
+ public:
+  using Config = MapMergerConfig;
+
+  // Throws InputError for bad settings (each component checks its own slice).
+  explicit MapMerger(const Config& config, core::Logger logger = core::null_logger());
+
+  // Throws InputError only for duplicate robot ids; everything else is handled per robot (see above).
+  MergeResult merge(const std::vector<RobotCloud>& robots) const;
+
+  const Config& config() const { return config_; }
+
+ private:
+  Config config_;
+  OverlapFinder overlap_;
+  GicpRegistration registration_;
+  UniformSampler sampler_;
+  GaussianFilter filter_;
+  core::Logger logger_;
+};
+
+}  // namespace fleetslam::central

@@ -1,0 +1,86 @@
+#pragma once
+// Fine matching (PAPER.md section 4, paper eqs. 8-12): generalized ICP (Segal et al. 2009) between the
+// overlap sets. Each point gets a covariance from its `covariance_neighbours` nearest points, flattened to
+// a plane (eigenvalues (plane_epsilon, 1, 1), "plane-to-plane"); correspondences are nearest neighbours
+// within max_correspondence_distance_m; the transform minimises
+//   sum_i d_i^T (C_i^B + R C_i^A R^T)^-1 d_i,  d_i = b_i - T a_i      (paper eq. 12)
+// Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost.
+//
+// Backends: `native` (this project's Gauss-Newton on SE(3) with exact kd-tree correspondences, the
+// default) and `pcl` (pcl::GeneralizedIterativeClosestPoint, kept for comparison). Measured on the
+// overlap of two 200k-point synthetic rooms with a 10 cm + 5 degree prior error (tests/bench/bench_merge,
+// 2-core build machine): see bench_merge.cpp's header comment for the figures that chose the default.
+
+#include <cstddef>
+#include <limits>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/point_cloud.hpp"
+
+namespace fleetslam::central {
+
+enum class RegistrationBackend { kNative, kPcl };
+
+struct RegistrationConfig {
+  bool enabled = true;  // false: align() returns the guess (status "disabled")
+  RegistrationBackend backend = RegistrationBackend::kNative;
+  int max_iterations = 30;
+  // Must exceed the prior's error over the overlap (see OverlapConfig::coarse_radius_m).
+  double max_correspondence_distance_m = 0.5;
+  // Converged when one update moves less than both epsilons.
+  double translation_epsilon_m = 1e-4;
+  double rotation_epsilon_rad = 1e-4;
+  double voxel_size_m = 0.05;     // uniform pre-sampling of both sets (0: none)
+  int covariance_neighbours = 20;  // PCL's default k
+  double plane_epsilon = 1e-3;     // PCL's gicp_epsilon
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v.choice("backend", backend, {{"native", RegistrationBackend::kNative}, {"pcl", RegistrationBackend::kPcl}});
+    v("max_iterations", max_iterations, core::Limits<int>{1, 1000});
+    v("max_correspondence_distance_m", max_correspondence_distance_m, core::Limits<double>{1e-4, 100.0});
+    v("translation_epsilon_m", translation_epsilon_m, core::Limits<double>{0.0, 1.0});
+    v("rotation_epsilon_rad", rotation_epsilon_rad, core::Limits<double>{0.0, 1.0});
+    v("voxel_size_m", voxel_size_m, core::Limits<double>{0.0, 10.0});
+    v("covariance_neighbours", covariance_neighbours, core::Limits<int>{3, 200});
+    v("plane_epsilon", plane_epsilon, core::Limits<double>{1e-9, 1.0});
+  }
+};
+
+struct RegistrationResult {
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  // maps source points onto the target
+  bool converged = false;
+  int iterations = 0;
+  // After alignment: mean squared distance from the source points to their nearest target point, over
+  // the source points that have one within max_correspondence_distance_m (PCL's getFitnessScore), and
+  // the share of source points that have one.
+  double fitness_m2 = std::numeric_limits<double>::infinity();
+  double inlier_ratio = 0.0;
+  std::size_t source_points = 0;  // used, after sampling
+  std::size_t target_points = 0;
+  std::string status;  // "converged", "max iterations", "too few points", "degenerate", "disabled"
+};
+
+class GicpRegistration {
+ public:
+  using Config = RegistrationConfig;
+
+  // Throws InputError ("registration.<key>: ...") for out-of-range settings.
+  explicit GicpRegistration(const Config& config);
+
+  // Aligns source onto target starting from the guess. Non-finite points are ignored. Failure is in the
+  // result (converged false, status), never an exception.
+  RegistrationResult align(const core::PointCloud& source, const core::PointCloud& target,
+                           const Eigen::Isometry3d& T_target_source_guess = Eigen::Isometry3d::Identity()) const;
+
+  const Config& config() const { return config_; }
+
+ private:
+  Config config_;
+};
+
+}  // namespace fleetslam::central

@@ -1,0 +1,228 @@
+#include "fleetslam/central/map_merger.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <string>
+
+#include <spdlog/logger.h>
+
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+bool is_rigid(const Eigen::Isometry3d& T) {
+  if (!T.matrix().allFinite()) return false;
+  const Eigen::Matrix3d R = T.linear();
+  return (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
+}
+
+// Which robot each point of the merged cloud came from: robot i owns [begin, end).
+struct Owner {
+  std::size_t robot;  // position in the input
+  std::size_t begin;
+  std::size_t end;
+};
+
+// Merging state: the merged cloud and who owns which part.
+struct Merged {
+  core::PointCloud cloud;
+  std::vector<Owner> owners;
+
+  void add(std::size_t robot, const core::PointCloud& cloud_world) {
+    owners.push_back(Owner{robot, cloud.size(), cloud.size() + cloud_world.size()});
+    cloud.append(cloud_world);
+  }
+};
+
+// Mutual pairs per robot already merged (the A side of the overlap is the merged cloud).
+std::vector<std::pair<int, std::size_t>> pairs_per_robot(const Overlap& overlap, const Merged& merged,
+                                                         const std::vector<RobotCloud>& robots) {
+  std::vector<std::pair<int, std::size_t>> counts;
+  for (const Owner& owner : merged.owners) {
+    const auto first = std::lower_bound(overlap.indices_a.begin(), overlap.indices_a.end(), owner.begin);
+    const auto last = std::lower_bound(overlap.indices_a.begin(), overlap.indices_a.end(), owner.end);
+    counts.emplace_back(robots[owner.robot].robot_id, static_cast<std::size_t>(last - first));
+  }
+  return counts;
+}
+
+std::string describe(const Eigen::Isometry3d& T) {
+  const Eigen::AngleAxisd rotation(T.linear());
+  char text[96];
+  constexpr double kDegreesPerRadian = 57.29577951308232;
+  std::snprintf(text, sizeof(text), "%.1f mm, %.3f deg", T.translation().norm() * 1e3, rotation.angle() * kDegreesPerRadian);
+  return text;
+}
+
+}  // namespace
+
+MapMerger::MapMerger(const Config& config, core::Logger logger)
+    : config_(config),
+      overlap_(config.coarse),
+      registration_(config.registration),
+      sampler_(config.sampling),
+      filter_(config.filter),
+      logger_(logger ? std::move(logger) : core::null_logger()) {
+  if (config_.min_overlap_points < 1) throw InputError("min_overlap_points", "must be at least 1");
+  if (!(config_.min_inlier_ratio >= 0.0 && config_.min_inlier_ratio <= 1.0)) {
+    throw InputError("min_inlier_ratio", "must be in [0, 1]");
+  }
+}
+
+MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
+  const Clock::time_point start = Clock::now();
+  std::set<int> ids;
+  for (const RobotCloud& robot : robots) {
+    if (!ids.insert(robot.robot_id).second) {
+      throw InputError("merge", "robot id " + std::to_string(robot.robot_id) + " appears twice");
+    }
+  }
+  MergeResult result;
+  result.robots.resize(robots.size());
+
+  // Each robot's finite points in the world by its prior.
+  std::vector<core::PointCloud> clouds_world(robots.size());
+  std::vector<std::size_t> pending;
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    RobotMergeReport& report = result.robots[i];
+    report.robot_id = robots[i].robot_id;
+    report.T_world_robot_prior = robots[i].T_world_robot_prior;
+    report.T_world_robot = robots[i].T_world_robot_prior;
+    if (!is_rigid(robots[i].T_world_robot_prior)) {
+      report.status = "bad prior (not a finite rigid transform): left out";
+      logger_->error("merge: robot {}: {}", report.robot_id, report.status);
+      continue;
+    }
+    clouds_world[i] = core::transformed(robots[i].cloud_robot, robots[i].T_world_robot_prior);
+    report.non_finite_removed = core::remove_non_finite(clouds_world[i]);
+    report.points = clouds_world[i].size();
+    if (report.non_finite_removed > 0) {
+      logger_->warn("merge: robot {}: {} non-finite points removed", report.robot_id, report.non_finite_removed);
+    }
+    if (clouds_world[i].empty()) {
+      report.status = "empty cloud: nothing to merge";
+      logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+    }
+    pending.push_back(i);
+  }
+
+  Merged merged;
+  const auto place = [&](std::size_t i, const std::string& status) {
+    RobotMergeReport& report = result.robots[i];
+    report.placed = true;
+    if (report.status.empty()) report.status = status;
+    merged.add(i, clouds_world[i]);
+    logger_->info("merge: robot {}: {} ({} points)", report.robot_id, report.status, report.points);
+  };
+  // The reference: robots[0], or the first usable robot when robots[0]'s prior is not.
+  if (!pending.empty()) {
+    place(pending.front(), "reference");
+    pending.erase(pending.begin());
+  }
+
+  // Coarse-to-fine matching against the merged cloud so far; see the header for the order.
+  std::vector<std::size_t> tried_at(robots.size(), static_cast<std::size_t>(-1));  // merged size at last try
+  while (!pending.empty()) {
+    bool placed_any = false;
+    for (auto it = pending.begin(); it != pending.end();) {
+      const std::size_t i = *it;
+      RobotMergeReport& report = result.robots[i];
+      if (clouds_world[i].empty()) {  // nothing to match; placed so that its report is final
+        place(i, "empty cloud");
+        it = pending.erase(it);
+        placed_any = true;
+        continue;
+      }
+      if (tried_at[i] == merged.cloud.size()) {  // the merged cloud has not changed since
+        ++it;
+        continue;
+      }
+      tried_at[i] = merged.cloud.size();
+      Clock::time_point stage = Clock::now();
+      const Overlap overlap = overlap_.find(merged.cloud, clouds_world[i]);
+      result.timings.coarse_ms += ms_since(stage);
+      report.overlap_points = overlap.size();
+      report.overlap_mean_distance_m = overlap.mean_distance_m;
+      report.overlap_with = pairs_per_robot(overlap, merged, robots);
+      logger_->info("merge: robot {}: coarse overlap {} pairs (mean distance {:.3f} m) with {} merged points",
+                    report.robot_id, overlap.size(), overlap.mean_distance_m, merged.cloud.size());
+      if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) {
+        ++it;  // waits for the merged cloud to grow
+        continue;
+      }
+      if (config_.registration.enabled) {
+        stage = Clock::now();
+        report.registration = registration_.align(select_points(clouds_world[i], overlap.indices_b),
+                                                  select_points(merged.cloud, overlap.indices_a));
+        result.timings.registration_ms += ms_since(stage);
+        const RegistrationResult& r = report.registration;
+        const bool usable = (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio;
+        logger_->info("merge: robot {}: GICP {} after {} iterations on {}/{} points, fitness {:.3g} m^2, inliers {:.2f}, "
+                      "correction {}",
+                      report.robot_id, r.status, r.iterations, r.source_points, r.target_points, r.fitness_m2,
+                      r.inlier_ratio, describe(r.T_target_source));
+        if (usable) {
+          core::transform_in_place(clouds_world[i], r.T_target_source);
+          report.T_world_robot = r.T_target_source * report.T_world_robot_prior;
+          report.fine_matched = true;
+          report.status = "fine matched";
+        } else {
+          report.status = "registration discarded (" + r.status + ", inlier ratio " + std::to_string(r.inlier_ratio) +
+                          "): prior kept";
+          logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+        }
+      } else {
+        report.status = "coarse only (registration disabled)";
+      }
+      place(i, report.status);
+      it = pending.erase(it);
+      placed_any = true;
+    }
+    if (!placed_any && !pending.empty()) {
+      const std::size_t i = pending.front();
+      RobotMergeReport& report = result.robots[i];
+      report.status = report.overlap_points == 0
+                          ? "no overlap: prior kept"
+                          : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): prior kept";
+      logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+      place(i, report.status);
+      pending.erase(pending.begin());
+    }
+  }
+
+  result.points_before_sampling = merged.cloud.size();
+  Clock::time_point stage = Clock::now();
+  SamplingResult sampled = sampler_.sample(merged.cloud);
+  result.timings.sampling_ms = ms_since(stage);
+  result.points_after_sampling = sampled.points_after;
+  stage = Clock::now();
+  FilterResult filtered = filter_.filter(sampled.cloud);
+  result.timings.filter_ms = ms_since(stage);
+  result.points_after_filter = filtered.points;
+  result.cloud_world = std::move(filtered.cloud);
+  result.timings.total_ms = ms_since(start);
+  const double reduction = result.points_before_sampling == 0
+                               ? 0.0
+                               : 100.0 * (1.0 - static_cast<double>(result.points_after_sampling) /
+                                                    static_cast<double>(result.points_before_sampling));
+  logger_->info("merge: {} robots, {} points merged, {} after uniform sampling ({:.2f} % fewer), {} after Gaussian "
+                "filtering (mean shift {:.4f} m); coarse {:.1f} ms, fine {:.1f} ms, sampling {:.1f} ms, filter {:.1f} ms, "
+                "total {:.1f} ms",
+                robots.size(), result.points_before_sampling, result.points_after_sampling, reduction,
+                result.points_after_filter, filtered.mean_shift_m, result.timings.coarse_ms,
+                result.timings.registration_ms, result.timings.sampling_ms, result.timings.filter_ms,
+                result.timings.total_ms);
+  return result;
+}
+
+}  // namespace fleetslam::central

@@ -1,0 +1,205 @@
+#include "fleetslam/central/registration.hpp"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "fleetslam/central/kdtree.hpp"
+#include "fleetslam/central/sampling.hpp"
+#include "fleetslam/core/error.hpp"
+#include "with_pcl/registration_pcl.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+constexpr std::size_t kMinPoints = 10;
+
+// Finite points, uniformly sampled when voxel_size_m > 0.
+std::vector<Eigen::Vector3f> prepare(const core::PointCloud& cloud, double voxel_size_m) {
+  core::PointCloud positions;
+  positions.points = cloud.points;
+  if (voxel_size_m > 0.0) {
+    UniformSamplingConfig sampling;
+    sampling.voxel_size_m = voxel_size_m;
+    return UniformSampler(sampling).sample(positions).cloud.points;
+  }
+  core::remove_non_finite(positions);
+  return positions.points;
+}
+
+// GICP's plane-to-plane covariances (Segal et al. section III-B): the covariance of the k nearest points,
+// its eigenvalues replaced by (epsilon, 1, 1).
+std::vector<Eigen::Matrix3d> plane_covariances(const std::vector<Eigen::Vector3f>& points, const KdTree& tree,
+                                               int neighbours, double epsilon) {
+  std::vector<Eigen::Matrix3d> covariances(points.size());
+  std::vector<Neighbour> near;
+  const Eigen::Vector3d flattened(epsilon, 1.0, 1.0);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    tree.knn(points[i], static_cast<std::size_t>(neighbours), std::numeric_limits<float>::infinity(), near);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Neighbour& n : near) mean += points[n.index].cast<double>();
+    mean /= static_cast<double>(near.size());
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (const Neighbour& n : near) {
+      const Eigen::Vector3d d = points[n.index].cast<double>() - mean;
+      scatter += d * d.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);  // eigenvalues ascending
+    const Eigen::Matrix3d& U = solver.eigenvectors();
+    covariances[i] = U * flattened.asDiagonal() * U.transpose();
+  }
+  return covariances;
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return S;
+}
+
+struct Fitness {
+  double mean_sq_m2 = std::numeric_limits<double>::infinity();
+  double inlier_ratio = 0.0;
+};
+
+Fitness fitness(const std::vector<Eigen::Vector3f>& source, const KdTree& target, const Eigen::Isometry3d& T,
+                double max_distance_m) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  double sum = 0.0;
+  std::size_t inliers = 0;
+  for (const Eigen::Vector3f& s : source) {
+    const Neighbour n = target.nearest(R * s + t, static_cast<float>(max_distance_m));
+    if (!n.found()) continue;
+    sum += static_cast<double>(n.distance_sq_m2);
+    ++inliers;
+  }
+  Fitness f;
+  if (inliers > 0) f.mean_sq_m2 = sum / static_cast<double>(inliers);
+  if (!source.empty()) f.inlier_ratio = static_cast<double>(inliers) / static_cast<double>(source.size());
+  return f;
+}
+
+// Gauss-Newton on SE(3), left perturbation T <- exp(xi) T with xi = (omega, v):
+// d_i(xi) = b_i - exp(xi) p_i ~ d_i + [p_i]x omega - v, p_i = T a_i, so J_i = [[p_i]x, -I] and the
+// normal equations sum J_i^T M_i J_i xi = -sum J_i^T M_i d_i with M_i = (C_i^B + R C_i^A R^T)^-1.
+RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
+                                const KdTree& target_tree, const Eigen::Isometry3d& guess,
+                                const RegistrationConfig& config) {
+  const KdTree source_tree(source);
+  const std::vector<Eigen::Matrix3d> source_cov =
+      plane_covariances(source, source_tree, config.covariance_neighbours, config.plane_epsilon);
+  const std::vector<Eigen::Matrix3d> target_cov =
+      plane_covariances(target, target_tree, config.covariance_neighbours, config.plane_epsilon);
+  const auto max_distance = static_cast<float>(config.max_correspondence_distance_m);
+
+  RegistrationResult result;
+  result.status = "max iterations";
+  Eigen::Isometry3d T = guess;
+  for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
+    result.iterations = iteration;
+    const Eigen::Matrix3d R = T.linear();
+    Matrix6d H = Matrix6d::Zero();
+    Vector6d g = Vector6d::Zero();
+    std::size_t correspondences = 0;
+    for (std::size_t i = 0; i < source.size(); ++i) {
+      const Eigen::Vector3d p = T * source[i].cast<double>();
+      const Neighbour n = target_tree.nearest(p.cast<float>(), max_distance);
+      if (!n.found()) continue;
+      ++correspondences;
+      const Eigen::Vector3d d = target[n.index].cast<double>() - p;
+      const Eigen::Matrix3d M = (target_cov[n.index] + R * source_cov[i] * R.transpose()).inverse();
+      const Eigen::Matrix3d S = skew(p);
+      const Eigen::Matrix3d StM = S.transpose() * M;
+      H.block<3, 3>(0, 0) += StM * S;
+      H.block<3, 3>(0, 3) -= StM;
+      H.block<3, 3>(3, 3) += M;
+      g.head<3>() += StM * d;
+      g.tail<3>() -= M * d;
+    }
+    if (correspondences < kMinPoints) {
+      result.status = "degenerate";
+      break;
+    }
+    H.block<3, 3>(3, 0) = H.block<3, 3>(0, 3).transpose();
+    const Vector6d xi = H.ldlt().solve(-g);
+    if (!xi.allFinite()) {
+      result.status = "degenerate";
+      break;
+    }
+    const Eigen::Vector3d omega = xi.head<3>();
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    if (omega.norm() > 0.0) step.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+    step.translation() = xi.tail<3>();
+    T = step * T;
+    T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();  // no drift from rigidity
+    if (omega.norm() < config.rotation_epsilon_rad && xi.tail<3>().norm() < config.translation_epsilon_m) {
+      result.converged = true;
+      result.status = "converged";
+      break;
+    }
+  }
+  result.T_target_source = T;
+  return result;
+}
+
+}  // namespace
+
+GicpRegistration::GicpRegistration(const Config& config) : config_(config) {
+  const auto require = [](bool ok, const char* key, const std::string& why) {
+    if (!ok) throw InputError(std::string("registration.") + key, why);
+  };
+  require(config_.max_iterations >= 1, "max_iterations", "must be at least 1");
+  require(config_.max_correspondence_distance_m > 0.0 && std::isfinite(config_.max_correspondence_distance_m),
+          "max_correspondence_distance_m", "must be positive");
+  require(config_.translation_epsilon_m >= 0.0, "translation_epsilon_m", "must not be negative");
+  require(config_.rotation_epsilon_rad >= 0.0, "rotation_epsilon_rad", "must not be negative");
+  require(config_.voxel_size_m >= 0.0 && std::isfinite(config_.voxel_size_m), "voxel_size_m",
+          "must be 0 (no sampling) or positive");
+  require(config_.covariance_neighbours >= 3, "covariance_neighbours", "must be at least 3");
+  require(config_.plane_epsilon > 0.0 && config_.plane_epsilon <= 1.0, "plane_epsilon", "must be in (0, 1]");
+}
+
+RegistrationResult GicpRegistration::align(const core::PointCloud& source, const core::PointCloud& target,
+                                           const Eigen::Isometry3d& T_target_source_guess) const {
+  if (!config_.enabled) {
+    RegistrationResult result;
+    result.T_target_source = T_target_source_guess;
+    result.status = "disabled";
+    return result;
+  }
+  const std::vector<Eigen::Vector3f> source_points = prepare(source, config_.voxel_size_m);
+  const std::vector<Eigen::Vector3f> target_points = prepare(target, config_.voxel_size_m);
+  RegistrationResult result;
+  if (source_points.size() < kMinPoints || target_points.size() < kMinPoints || !T_target_source_guess.matrix().allFinite()) {
+    result.T_target_source = T_target_source_guess;
+    result.source_points = source_points.size();
+    result.target_points = target_points.size();
+    result.status = "too few points";
+    return result;
+  }
+  const KdTree target_tree(target_points);
+  if (config_.backend == RegistrationBackend::kPcl) {
+    const detail::PclAlignment pcl = detail::align_with_pcl(source_points, target_points, T_target_source_guess, config_);
+    result.T_target_source = pcl.T_target_source;
+    result.converged = pcl.converged;
+    result.iterations = pcl.iterations;
+    result.status = pcl.converged ? "converged" : "max iterations";
+  } else {
+    result = align_native(source_points, target_points, target_tree, T_target_source_guess, config_);
+  }
+  result.source_points = source_points.size();
+  result.target_points = target_points.size();
+  const Fitness f = fitness(source_points, target_tree, result.T_target_source, config_.max_correspondence_distance_m);
+  result.fitness_m2 = f.mean_sq_m2;
+  result.inlier_ratio = f.inlier_ratio;
+  return result;
+}
+
+}  // namespace fleetslam::central
