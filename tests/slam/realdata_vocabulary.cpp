@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -99,19 +100,23 @@ double database_hit_rate(const std::vector<BowVector>& bows) {
   return static_cast<double>(hits) / std::max(queries, 1);
 }
 
+// The shipped vocabulary, loaded once for the suite.
 class RealVocabulary : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    if (fs::exists(kVocabulary)) vocabulary_ = new Vocabulary(Vocabulary::load(kVocabulary));
+    if (fs::exists(kVocabulary)) shipped() = std::make_unique<const Vocabulary>(Vocabulary::load(kVocabulary));
   }
-  static void TearDownTestSuite() {
-    delete vocabulary_;
-    vocabulary_ = nullptr;
+  static void TearDownTestSuite() { shipped().reset(); }
+  void SetUp() override {
+    ASSERT_NE(shipped(), nullptr) << "the shipped vocabulary " << kVocabulary << " is missing";
+    vocabulary_ = shipped().get();
   }
-  void SetUp() override { ASSERT_NE(vocabulary_, nullptr) << "the shipped vocabulary " << kVocabulary << " is missing"; }
-  static const Vocabulary* vocabulary_;
+  static std::unique_ptr<const Vocabulary>& shipped() {
+    static std::unique_ptr<const Vocabulary> vocabulary;
+    return vocabulary;
+  }
+  const Vocabulary* vocabulary_ = nullptr;
 };
-const Vocabulary* RealVocabulary::vocabulary_ = nullptr;
 
 TEST_F(RealVocabulary, ShippedVocabularyIsTheDocumentedOne) {
   EXPECT_EQ(vocabulary_->branching(), 10);

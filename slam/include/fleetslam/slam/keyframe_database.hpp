@@ -2,7 +2,7 @@
 // Keyframes indexed by their bag-of-words vectors for place recognition (loop closing, relocalisation,
 // map merging): an inverted index word -> (keyframe, weight), so that a query only visits keyframes that
 // share a word with it (DBoW2 paper, section V-A). Scores are Vocabulary's L1 score, bit-identical to
-// bow_score(query, keyframe's vector).
+// bow_score(query, keyframe's vector). Not thread-safe: its owner serialises access, as for the Map.
 
 #include <cstddef>
 #include <map>

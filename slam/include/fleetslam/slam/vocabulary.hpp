@@ -17,6 +17,8 @@
 //
 // Files: a versioned binary format of this project (load() / save(), see vocabulary_io.cpp), and the
 // DBoW2 text format that ORB-SLAM's ORBvoc.txt uses (load_dbow2_text() / save_dbow2_text()).
+// A Vocabulary is immutable once built: share it as shared_ptr<const Vocabulary>; its const methods may
+// run on several threads at once.
 
 #include <cstddef>
 #include <cstdint>
