@@ -1,0 +1,170 @@
+#pragma once
+// The central unit (PAPER.md §4, DESIGN.md data flow): agents' updates in, one world map out.
+//   integrate(update)  keeps each robot's state: its frames (each relative to the keyframe that was
+//                      newest when it arrived, so keyframe corrections move it), its keyframes' poses
+//                      and dense clouds (relative to the keyframe), in the robot's own frame (its agent's
+//                      world: the first camera pose);
+//   merge()            the robots' dense clouds into the world frame by their initial-pose priors
+//                      (coarse), refined by registration where they overlap (fine), merged, uniformly
+//                      sampled and Gaussian-filtered (MapMerger); then each robot's trajectory fused into
+//                      the world frame (TrajectoryFusion), with the keyframes in the overlap as anchors.
+// The server never includes the simulator: simulated and real robots look the same to it.
+//
+// Bad input is logged and counted, never thrown: an update from a robot not registered, one whose
+// sequence does not advance (duplicate or out of order), a pose or cloud with NaN (the NaN points are
+// dropped), keyframes of a later map component (the agent lost track and restarted in an unknown frame:
+// they cannot be placed by the prior and are left out of the map). Robots that never overlap keep the
+// coarse result. Not thread-safe: one thread integrates and merges (agents may send from their own
+// threads through the Link).
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "fleetslam/central/link.hpp"
+#include "fleetslam/central/map_merger.hpp"
+#include "fleetslam/central/trajectory_fusion.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/core/point_cloud.hpp"
+#include "fleetslam/core/trajectory.hpp"
+#include "fleetslam/slam/agent.hpp"
+
+namespace fleetslam::central {
+
+struct ServerConfig {
+  MapMergerConfig merge;
+  TrajectoryFusionConfig fusion;
+  // A keyframe anchors its robot's trajectory to the refined transform when at least this share of its
+  // dense points lies within anchor_radius_m of another robot's map (both placed by the merge).
+  double anchor_min_overlap_share = 0.2;
+  double anchor_radius_m = 0.05;
+
+  template <class V>
+  void visit(V& v) {
+    v("merge", merge);
+    v("fusion", fusion);
+    v("anchor_min_overlap_share", anchor_min_overlap_share, core::Limits<double>{0.0, 1.0});
+    v("anchor_radius_m", anchor_radius_m, core::Limits<double>{1e-4, 10.0});
+  }
+};
+
+// A robot as the server knows it before any update: its id (AgentUpdate::robot_id), a name for files
+// and logs, and the prior T_world_robot: the pose of the robot's frame (its first camera) in the world.
+struct RobotSpec {
+  int robot_id = 0;
+  std::string name;
+  Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();
+};
+
+enum class IntegrateStatus { kAccepted, kUnknownRobot, kOutOfOrder, kInvalid };
+std::string to_string(IntegrateStatus status);  // "accepted", "unknown_robot", "out_of_order", "invalid"
+
+struct RobotCounters {
+  std::size_t updates = 0;      // accepted
+  std::size_t rejected = 0;     // out of order / duplicate / invalid
+  std::size_t tracked = 0;      // accepted updates with a pose
+  std::size_t lost = 0;
+  std::size_t other_component_keyframes = 0;  // keyframes of a later map component, left out
+  std::size_t nan_points = 0;   // dense points dropped for NaN / inf
+};
+
+struct ServerKeyframe {
+  core::TimeNs t_ns = 0;
+  Eigen::Isometry3d T_robot_cam = Eigen::Isometry3d::Identity();
+  core::PointCloud dense_cam;
+};
+
+struct RobotFusionReport {
+  int robot_id = 0;
+  std::string name;
+  std::size_t points = 0;          // dense points in the robot's map
+  std::size_t overlap_points = 0;  // in the overlap with the map it was registered against
+  bool registered = false;         // fine registration refined its prior
+  std::string merge_status;        // the merger's word on it ("reference", "fine matched", "no overlap: prior kept", ...)
+  std::vector<std::size_t> anchors;  // keyframes (indices in time order) in the overlap
+  Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (or the prior)
+  FusedTrajectory fused;
+};
+
+struct ServerMergeReport {
+  MergeResult merge;
+  std::vector<RobotFusionReport> robots;
+};
+
+// The merger's report on one robot (nullptr when it was not in the merge).
+const RobotMergeReport* merged_robot(const MergeResult& result, int robot_id);
+// Counts, timings, per-robot transforms and registration results, as written to merge.json.
+nlohmann::json to_json(const MergeResult& result);
+
+class Server {
+ public:
+  Server(const ServerConfig& config, core::Logger logger);
+
+  // Registers a robot. Throws InputError for an id registered twice or a non-rigid prior.
+  void add_robot(const RobotSpec& spec);
+  IntegrateStatus integrate(const slam::AgentUpdate& update);
+  // Integrates everything waiting on the link; returns how many updates were accepted.
+  std::size_t integrate_all(Link& link);
+
+  // Merges the current maps and fuses the trajectories (see the file comment).
+  const ServerMergeReport& merge();
+  const std::optional<ServerMergeReport>& last_merge() const { return last_merge_; }
+
+  std::vector<int> robot_ids() const;
+  const RobotSpec& spec(int robot_id) const;
+  const RobotCounters& counters(int robot_id) const;
+  // The robot's dense map in its own frame (each keyframe's cloud moved by its latest pose).
+  core::PointCloud robot_cloud(int robot_id) const;
+  // Every accepted tracked frame in the robot's frame, following its keyframes' latest poses.
+  core::Trajectory robot_trajectory(int robot_id) const;
+  // Keyframes in time order, robot frame.
+  core::Trajectory robot_keyframes(int robot_id) const;
+  // After merge(): the robot's frames in the world frame (before: placed by the prior).
+  core::Trajectory world_trajectory(int robot_id) const;
+
+  // merged_map.ply, <name>/map.ply (world frame), <name>/trajectory.txt (world, TUM),
+  // <name>/trajectory_robot.txt (robot frame), merge.json (counts, transforms, timings). Merges first
+  // when merge() has not run.
+  void write_outputs(const std::filesystem::path& dir);
+
+  const ServerConfig& config() const { return config_; }
+
+ private:
+  struct FrameEntry {
+    core::TimeNs t_ns = 0;
+    slam::KeyframeId reference = -1;
+    Eigen::Isometry3d T_ref_cam = Eigen::Isometry3d::Identity();
+  };
+  struct RobotState {
+    RobotSpec spec;
+    RobotCounters counters;
+    std::int64_t last_sequence = -1;
+    int component = -1;  // the map component the prior places (the first one seen)
+    std::map<slam::KeyframeId, ServerKeyframe> keyframes;
+    std::map<slam::KeyframeId, Eigen::Isometry3d> retired;  // removed keyframes' last poses (frames may refer to them)
+    slam::KeyframeId newest = -1;
+    std::vector<FrameEntry> frames;
+  };
+
+  RobotState& state(int robot_id);
+  const RobotState& state(int robot_id) const;
+  void take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf);
+  std::optional<Eigen::Isometry3d> keyframe_pose(const RobotState& robot, slam::KeyframeId id) const;
+
+  ServerConfig config_;
+  core::Logger logger_;
+  MapMerger merger_;
+  TrajectoryFusion fusion_;
+  std::map<int, RobotState> robots_;
+  std::optional<ServerMergeReport> last_merge_;
+};
+
+}  // namespace fleetslam::central

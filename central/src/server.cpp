@@ -1,0 +1,349 @@
+#include "fleetslam/central/server.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <unordered_set>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/logger.h>
+
+#include "fleetslam/core/error.hpp"
+
+namespace fleetslam::central {
+
+namespace {
+
+bool finite_pose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+bool rigid(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3d R = T.linear();
+  return finite_pose(T) && (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6 && R.determinant() > 0.0;
+}
+
+nlohmann::json pose_json(const Eigen::Isometry3d& T) {
+  const Eigen::Quaterniond q(T.rotation());
+  return {{"t", {T.translation().x(), T.translation().y(), T.translation().z()}},
+          {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
+// Voxel hash of a cloud at `cell_m`: a cheap "is there a point near here" test (the 27 cells around a
+// point cover every point within cell_m of it).
+class OccupancyHash {
+ public:
+  OccupancyHash(const core::PointCloud& cloud, double cell_m) : inv_(1.0 / cell_m) {
+    cells_.reserve(cloud.size());
+    for (const Eigen::Vector3f& p : cloud.points) cells_.insert(key(cell(p)));
+  }
+  bool near(const Eigen::Vector3f& p) const {
+    const Eigen::Vector3i c = cell(p);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          if (cells_.count(key(c + Eigen::Vector3i(dx, dy, dz))) > 0) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  Eigen::Vector3i cell(const Eigen::Vector3f& p) const {
+    return Eigen::Vector3i(static_cast<int>(std::floor(static_cast<double>(p.x()) * inv_)),
+                           static_cast<int>(std::floor(static_cast<double>(p.y()) * inv_)),
+                           static_cast<int>(std::floor(static_cast<double>(p.z()) * inv_)));
+  }
+  static std::int64_t key(const Eigen::Vector3i& c) {
+    const auto axis = [](int v) { return static_cast<std::int64_t>(v + (1 << 20)) & ((std::int64_t{1} << 21) - 1); };
+    return (axis(c.x()) << 42) | (axis(c.y()) << 21) | axis(c.z());
+  }
+  double inv_;
+  std::unordered_set<std::int64_t> cells_;
+};
+
+}  // namespace
+
+const RobotMergeReport* merged_robot(const MergeResult& result, int robot_id) {
+  for (const RobotMergeReport& r : result.robots) {
+    if (r.robot_id == robot_id) return &r;
+  }
+  return nullptr;
+}
+
+nlohmann::json to_json(const MergeResult& m) {
+  nlohmann::json robots = nlohmann::json::array();
+  for (const RobotMergeReport& r : m.robots) {
+    nlohmann::json overlaps = nlohmann::json::array();
+    for (const auto& [other, pairs] : r.overlap_with) overlaps.push_back({{"robot_id", other}, {"pairs", pairs}});
+    nlohmann::json entry = {{"robot_id", r.robot_id}, {"points", r.points}, {"non_finite_removed", r.non_finite_removed},
+                            {"placed", r.placed}, {"fine_matched", r.fine_matched}, {"status", r.status},
+                            {"overlap_points", r.overlap_points}, {"overlap_mean_distance_m", r.overlap_mean_distance_m},
+                            {"overlap_with", overlaps}, {"T_world_robot_prior", pose_json(r.T_world_robot_prior)},
+                            {"T_world_robot", pose_json(r.T_world_robot)}};
+    if (!r.registration.status.empty()) {
+      entry["registration"] = {{"status", r.registration.status}, {"converged", r.registration.converged},
+                               {"iterations", r.registration.iterations}, {"inlier_ratio", r.registration.inlier_ratio},
+                               {"fitness_m2", std::isfinite(r.registration.fitness_m2) ? nlohmann::json(r.registration.fitness_m2) : nlohmann::json(nullptr)},
+                               {"source_points", r.registration.source_points}, {"target_points", r.registration.target_points}};
+    }
+    robots.push_back(entry);
+  }
+  return {{"points_before_sampling", m.points_before_sampling}, {"points_after_sampling", m.points_after_sampling},
+          {"points_after_filter", m.points_after_filter},
+          {"timings_ms", {{"coarse", m.timings.coarse_ms}, {"registration", m.timings.registration_ms},
+                          {"sampling", m.timings.sampling_ms}, {"filter", m.timings.filter_ms}, {"total", m.timings.total_ms}}},
+          {"robots", robots}};
+}
+
+std::string to_string(IntegrateStatus status) {
+  switch (status) {
+    case IntegrateStatus::kAccepted: return "accepted";
+    case IntegrateStatus::kUnknownRobot: return "unknown_robot";
+    case IntegrateStatus::kOutOfOrder: return "out_of_order";
+    case IntegrateStatus::kInvalid: return "invalid";
+  }
+  return "unknown";
+}
+
+Server::Server(const ServerConfig& config, core::Logger logger)
+    : config_(config), logger_(std::move(logger)), merger_(config.merge, logger_), fusion_(config.fusion) {
+  FLEETSLAM_CHECK(logger_ != nullptr, "Server needs a logger (core::null_logger() discards)");
+}
+
+void Server::add_robot(const RobotSpec& spec) {
+  const std::string where = "robot " + std::to_string(spec.robot_id);
+  if (robots_.count(spec.robot_id) > 0) throw InputError(where, "registered twice");
+  if (!rigid(spec.T_world_robot)) throw InputError(where, "the prior T_world_robot is not a rigid transform");
+  RobotState state;
+  state.spec = spec;
+  if (state.spec.name.empty()) state.spec.name = "robot" + std::to_string(spec.robot_id);
+  robots_.emplace(spec.robot_id, std::move(state));
+}
+
+Server::RobotState& Server::state(int robot_id) {
+  auto it = robots_.find(robot_id);
+  if (it == robots_.end()) throw InputError("robot " + std::to_string(robot_id), "not registered");
+  return it->second;
+}
+
+const Server::RobotState& Server::state(int robot_id) const {
+  auto it = robots_.find(robot_id);
+  if (it == robots_.end()) throw InputError("robot " + std::to_string(robot_id), "not registered");
+  return it->second;
+}
+
+std::vector<int> Server::robot_ids() const {
+  std::vector<int> ids;
+  for (const auto& entry : robots_) ids.push_back(entry.first);
+  return ids;
+}
+
+const RobotSpec& Server::spec(int robot_id) const { return state(robot_id).spec; }
+const RobotCounters& Server::counters(int robot_id) const { return state(robot_id).counters; }
+
+void Server::take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf) {
+  if (robot.component < 0) robot.component = kf.component;
+  if (kf.component != robot.component) {
+    if (robot.keyframes.count(kf.id) == 0) ++robot.counters.other_component_keyframes;
+    return;
+  }
+  if (!finite_pose(kf.T_world_cam)) {
+    logger_->warn("{}: keyframe {} has a non-finite pose; ignored", robot.spec.name, kf.id);
+    return;
+  }
+  ServerKeyframe& entry = robot.keyframes[kf.id];
+  entry.t_ns = kf.t_ns;
+  entry.T_robot_cam = kf.T_world_cam;
+  if (kf.dense_cam) {
+    entry.dense_cam = *kf.dense_cam;
+    const std::size_t dropped = core::remove_non_finite(entry.dense_cam);
+    if (dropped > 0) {
+      robot.counters.nan_points += dropped;
+      logger_->warn("{}: keyframe {}: {} dense points with NaN dropped", robot.spec.name, kf.id, dropped);
+    }
+  }
+  robot.newest = std::max(robot.newest, kf.id);
+}
+
+IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
+  auto it = robots_.find(u.robot_id);
+  if (it == robots_.end()) {
+    logger_->warn("update {} from robot {} that is not registered; ignored", u.sequence, u.robot_id);
+    return IntegrateStatus::kUnknownRobot;
+  }
+  RobotState& robot = it->second;
+  if (u.sequence <= robot.last_sequence) {
+    ++robot.counters.rejected;
+    logger_->warn("{}: update {} does not advance past {} (duplicate or out of order); ignored", robot.spec.name,
+                  u.sequence, robot.last_sequence);
+    return IntegrateStatus::kOutOfOrder;
+  }
+  if (u.T_world_cam && !finite_pose(*u.T_world_cam)) {
+    ++robot.counters.rejected;
+    logger_->warn("{}: update {} carries a non-finite pose; ignored", robot.spec.name, u.sequence);
+    return IntegrateStatus::kInvalid;
+  }
+  robot.last_sequence = u.sequence;
+  ++robot.counters.updates;
+  if (u.status == slam::FrameStatus::kLost) ++robot.counters.lost;
+  for (const slam::KeyframeSnapshot& kf : u.new_keyframes) take_keyframe(robot, kf);
+  for (const slam::KeyframeSnapshot& kf : u.changed_keyframes) take_keyframe(robot, kf);
+  for (slam::KeyframeId id : u.removed_keyframes) {
+    auto kf = robot.keyframes.find(id);
+    if (kf == robot.keyframes.end()) continue;
+    robot.retired[id] = kf->second.T_robot_cam;
+    robot.keyframes.erase(kf);
+  }
+  if (u.T_world_cam && u.component == robot.component && robot.newest >= 0) {
+    const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, robot.newest);
+    if (T_robot_ref) {
+      robot.frames.push_back(FrameEntry{u.t_ns, robot.newest, T_robot_ref->inverse() * *u.T_world_cam});
+      ++robot.counters.tracked;
+    }
+  }
+  return IntegrateStatus::kAccepted;
+}
+
+std::size_t Server::integrate_all(Link& link) {
+  std::size_t accepted = 0;
+  for (const slam::AgentUpdate& u : link.receive()) accepted += integrate(u) == IntegrateStatus::kAccepted ? 1 : 0;
+  return accepted;
+}
+
+std::optional<Eigen::Isometry3d> Server::keyframe_pose(const RobotState& robot, slam::KeyframeId id) const {
+  if (auto kf = robot.keyframes.find(id); kf != robot.keyframes.end()) return kf->second.T_robot_cam;
+  if (auto old = robot.retired.find(id); old != robot.retired.end()) return old->second;
+  return std::nullopt;
+}
+
+core::PointCloud Server::robot_cloud(int robot_id) const {
+  const RobotState& robot = state(robot_id);
+  core::PointCloud cloud;
+  std::size_t total = 0;
+  for (const auto& entry : robot.keyframes) total += entry.second.dense_cam.size();
+  cloud.reserve(total);
+  for (const auto& entry : robot.keyframes) cloud.append(core::transformed(entry.second.dense_cam, entry.second.T_robot_cam));
+  return cloud;
+}
+
+core::Trajectory Server::robot_trajectory(int robot_id) const {
+  const RobotState& robot = state(robot_id);
+  core::Trajectory out;
+  out.reserve(robot.frames.size());
+  for (const FrameEntry& f : robot.frames) {
+    const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, f.reference);
+    if (T_robot_ref) out.push_back(core::StampedPose{f.t_ns, *T_robot_ref * f.T_ref_cam});
+  }
+  return out;
+}
+
+core::Trajectory Server::robot_keyframes(int robot_id) const {
+  const RobotState& robot = state(robot_id);
+  core::Trajectory out;
+  for (const auto& entry : robot.keyframes) out.push_back(core::StampedPose{entry.second.t_ns, entry.second.T_robot_cam});
+  std::sort(out.begin(), out.end(), [](const core::StampedPose& a, const core::StampedPose& b) { return a.t_ns < b.t_ns; });
+  return out;
+}
+
+core::Trajectory Server::world_trajectory(int robot_id) const {
+  if (last_merge_) {
+    for (const RobotFusionReport& r : last_merge_->robots) {
+      if (r.robot_id == robot_id) return r.fused.frames_world;
+    }
+  }
+  core::Trajectory out = robot_trajectory(robot_id);
+  const Eigen::Isometry3d& prior = state(robot_id).spec.T_world_robot;
+  for (core::StampedPose& p : out) p.T_world_body = prior * p.T_world_body;
+  return out;
+}
+
+const ServerMergeReport& Server::merge() {
+  ServerMergeReport report;
+  std::vector<RobotCloud> inputs;
+  for (const auto& [id, robot] : robots_) {
+    RobotCloud input;
+    input.robot_id = id;
+    input.cloud_robot = robot_cloud(id);
+    input.T_world_robot_prior = robot.spec.T_world_robot;
+    inputs.push_back(std::move(input));
+  }
+  report.merge = merger_.merge(inputs);
+
+  for (const auto& [id, robot] : robots_) {
+    RobotFusionReport r;
+    r.robot_id = id;
+    r.name = robot.spec.name;
+    const central::RobotMergeReport* info = merged_robot(report.merge, id);
+    r.T_world_robot = info != nullptr ? info->T_world_robot : robot.spec.T_world_robot;
+    r.registered = info != nullptr && info->fine_matched;
+    r.overlap_points = info != nullptr ? info->overlap_points : 0;
+    r.merge_status = info != nullptr ? info->status : "not merged";
+    const core::Trajectory keyframes = robot_keyframes(id);
+    std::optional<InterRobotConstraint> constraint;
+    if (r.registered) {
+      // Anchors: keyframes whose points (placed by the refined transform) lie on the rest of the map.
+      core::PointCloud others;
+      for (const auto& [other_id, other] : robots_) {
+        if (other_id == id) continue;
+        const central::RobotMergeReport* other_info = merged_robot(report.merge, other_id);
+        const Eigen::Isometry3d T = other_info != nullptr ? other_info->T_world_robot : other.spec.T_world_robot;
+        others.append(core::transformed(robot_cloud(other_id), T));
+      }
+      const OccupancyHash near_others(others, config_.anchor_radius_m);
+      std::vector<const ServerKeyframe*> ordered;
+      for (const auto& entry : robot.keyframes) ordered.push_back(&entry.second);
+      std::sort(ordered.begin(), ordered.end(), [](const ServerKeyframe* a, const ServerKeyframe* b) { return a->t_ns < b->t_ns; });
+      for (std::size_t k = 0; k < ordered.size(); ++k) {
+        const core::PointCloud& cloud = ordered[k]->dense_cam;
+        if (cloud.empty()) continue;
+        const Eigen::Isometry3d T_world_cam = r.T_world_robot * ordered[k]->T_robot_cam;
+        std::size_t near = 0;
+        for (const Eigen::Vector3f& p : cloud.points) {
+          near += near_others.near((T_world_cam.cast<float>() * p)) ? 1 : 0;
+        }
+        if (static_cast<double>(near) >= config_.anchor_min_overlap_share * static_cast<double>(cloud.size())) {
+          r.anchors.push_back(k);
+        }
+      }
+      constraint = InterRobotConstraint{r.T_world_robot, r.anchors};
+    }
+    r.fused = fusion_.fuse(keyframes, robot_trajectory(id), robot.spec.T_world_robot, constraint);
+    r.points = robot_cloud(id).size();
+    logger_->info("{}: {} dense points, {} in the overlap, {} anchor keyframes{}", r.name, r.points, r.overlap_points,
+                  r.anchors.size(), r.registered ? "" : " (coarse placement by the prior)");
+    report.robots.push_back(std::move(r));
+  }
+  last_merge_ = std::move(report);
+  return *last_merge_;
+}
+
+void Server::write_outputs(const std::filesystem::path& dir) {
+  if (!last_merge_) merge();
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir.string(), "cannot create the output folder: " + ec.message());
+  const ServerMergeReport& report = *last_merge_;
+  core::write_ply((dir / "merged_map.ply").string(), report.merge.cloud_world);
+  nlohmann::json robots = nlohmann::json::array();
+  for (const RobotFusionReport& r : report.robots) {
+    const fs::path robot_dir = dir / r.name;
+    core::write_ply((robot_dir / "map.ply").string(), core::transformed(robot_cloud(r.robot_id), r.T_world_robot));
+    core::write_trajectory(robot_dir / "trajectory.txt", r.fused.frames_world, core::TrajectoryFormat::kTum);
+    core::write_trajectory(robot_dir / "trajectory_robot.txt", robot_trajectory(r.robot_id), core::TrajectoryFormat::kTum);
+    const RobotCounters& c = counters(r.robot_id);
+    robots.push_back({{"robot_id", r.robot_id}, {"name", r.name}, {"points", r.points},
+                      {"overlap_points", r.overlap_points}, {"registered", r.registered}, {"merge_status", r.merge_status},
+                      {"anchor_keyframes", r.anchors.size()}, {"prior_T_world_robot", pose_json(spec(r.robot_id).T_world_robot)},
+                      {"T_world_robot", pose_json(r.T_world_robot)}, {"pose_graph_solved", r.fused.pose_graph_solved},
+                      {"updates", c.updates}, {"rejected_updates", c.rejected}, {"tracked", c.tracked}, {"lost", c.lost},
+                      {"other_component_keyframes", c.other_component_keyframes}, {"nan_points", c.nan_points}});
+  }
+  const nlohmann::json merge_json = to_json(report.merge);
+  const nlohmann::json out = {{"robots", robots}, {"merge", merge_json}};
+  std::ofstream file(dir / "merge.json");
+  file << out.dump(2) << "\n";
+  if (!file) throw InputError((dir / "merge.json").string(), "cannot write");
+}
+
+}  // namespace fleetslam::central

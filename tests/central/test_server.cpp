@@ -1,0 +1,247 @@
+// The central unit's server on hand-made agent updates: two robots whose keyframes see parts of one
+// room, a deliberately wrong prior for the second robot, and bad input (unknown robot, duplicates and
+// out-of-order updates, NaN points, keyframes of a restarted map, a robot that never overlaps).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "fleetslam/central/link.hpp"
+#include "fleetslam/central/server.hpp"
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/core/se3.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Points on the walls, floor and a few boxes of a 6 x 4 x 2.5 m room (world frame), with structure in
+// every direction so that registration is well constrained.
+core::PointCloud room_world(std::uint32_t seed, double spacing_m) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.3 * spacing_m, 0.3 * spacing_m);
+  core::PointCloud cloud;
+  const auto plane = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    const int na = static_cast<int>(a.norm() / spacing_m), nb = static_cast<int>(b.norm() / spacing_m);
+    for (int i = 0; i <= na; ++i) {
+      for (int j = 0; j <= nb; ++j) {
+        const Eigen::Vector3d p = origin + a * (static_cast<double>(i) / na) + b * (static_cast<double>(j) / nb) +
+                                  a.normalized() * jitter(rng) + b.normalized() * jitter(rng);
+        cloud.push_back(p.cast<float>(), core::PointCloud::Rgb{static_cast<std::uint8_t>(40 * i % 255),
+                                                               static_cast<std::uint8_t>(30 * j % 255), 128});
+      }
+    }
+  };
+  const Eigen::Vector3d X(6, 0, 0), Y(0, 4, 0), Z(0, 0, 2.5);
+  plane({0, 0, 0}, X, Y);  // floor
+  plane({0, 0, 0}, X, Z);
+  plane({0, 4, 0}, X, Z);
+  plane({0, 0, 0}, Y, Z);
+  plane({6, 0, 0}, Y, Z);
+  for (const Eigen::Vector3d& c : {Eigen::Vector3d(1.0, 1.0, 0), Eigen::Vector3d(2.3, 2.6, 0), Eigen::Vector3d(3.1, 0.7, 0),
+                                   Eigen::Vector3d(3.3, 3.0, 0), Eigen::Vector3d(4.6, 1.8, 0)}) {
+    const Eigen::Vector3d w(0.6, 0, 0), d(0, 0.5, 0), h(0, 0, 0.7);
+    plane(c, w, h);
+    plane(c + d, w, h);
+    plane(c, d, h);
+    plane(c + w, d, h);
+    plane(c + h, w, d);
+  }
+  return cloud;
+}
+
+Eigen::Isometry3d pose(const Eigen::Vector3d& t, double yaw_rad) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+// A keyframe of robot `robot` at world pose T_world_cam seeing the room points within its x range.
+slam::KeyframeSnapshot keyframe(slam::KeyframeId id, core::TimeNs t_ns, const Eigen::Isometry3d& T_world_robot,
+                                const Eigen::Isometry3d& T_world_cam, const core::PointCloud& room, double x_min, double x_max) {
+  slam::KeyframeSnapshot kf;
+  kf.id = id;
+  kf.t_ns = t_ns;
+  kf.T_world_cam = T_world_robot.inverse() * T_world_cam;  // in the robot's frame
+  core::PointCloud seen;
+  for (std::size_t i = 0; i < room.size(); ++i) {
+    const float x = room.points[i].x();
+    if (static_cast<double>(x) >= x_min && static_cast<double>(x) <= x_max) seen.push_back(room.points[i], room.colors[i]);
+  }
+  kf.dense_cam = core::transformed(seen, T_world_cam.inverse());
+  return kf;
+}
+
+slam::AgentUpdate update(int robot, std::int64_t sequence, core::TimeNs t_ns, const Eigen::Isometry3d& T_robot_cam) {
+  slam::AgentUpdate u;
+  u.robot_id = robot;
+  u.sequence = sequence;
+  u.t_ns = t_ns;
+  u.status = slam::FrameStatus::kTracked;
+  u.T_world_cam = T_robot_cam;
+  u.component = 0;
+  return u;
+}
+
+struct TwoRobots {
+  core::PointCloud room = room_world(3, 0.05);
+  Eigen::Isometry3d T_world_a = pose({0.5, 0.5, 1.0}, 0.0);
+  Eigen::Isometry3d T_world_b = pose({5.5, 3.5, 1.0}, 3.0);  // the truth
+  Eigen::Isometry3d prior_b;                                  // off by 10 cm and 5 degrees
+  TwoRobots() {
+    prior_b = T_world_b;
+    prior_b.translation() += Eigen::Vector3d(0.06, -0.08, 0.0);
+    prior_b.linear() = Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * T_world_b.linear();
+  }
+  // Robot A maps x in [0, 4], robot B x in [2, 6]: they share x in [2, 4].
+  void feed(Server& server) const {
+    InProcessLink link;
+    for (int k = 0; k < 4; ++k) {
+      const core::TimeNs t = (k + 1) * 1'000'000'000LL;
+      const Eigen::Isometry3d T_world_cam_a = pose({0.5 + 0.8 * k, 0.5, 1.0}, 0.0);
+      slam::AgentUpdate ua = update(0, k, t, T_world_a.inverse() * T_world_cam_a);
+      ua.new_keyframes.push_back(keyframe(k, t, T_world_a, T_world_cam_a, room, k, k + 1.0));
+      link.send(ua);
+      const Eigen::Isometry3d T_world_cam_b = pose({5.5 - 0.8 * k, 3.5, 1.0}, 3.0);
+      slam::AgentUpdate ub = update(1, k, t, T_world_b.inverse() * T_world_cam_b);
+      ub.new_keyframes.push_back(keyframe(k, t, T_world_b, T_world_cam_b, room, 5.0 - k, 6.0 - k));
+      link.send(ub);
+    }
+    EXPECT_EQ(server.integrate_all(link), 8u);
+  }
+};
+
+double rotation_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return core::rotation_angle_rad(a.linear().transpose() * b.linear()) * 180.0 / M_PI;
+}
+
+TEST(Server, RefinesAWrongPriorAndFusesTheTrajectory) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a});
+  server.add_robot({1, "b", s.prior_b});
+  s.feed(server);
+  const ServerMergeReport& report = server.merge();
+  ASSERT_EQ(report.robots.size(), 2u);
+  const RobotFusionReport& b = report.robots[1];
+  EXPECT_TRUE(b.registered);
+  EXPECT_GT(b.overlap_points, 1000u);
+  const double t_err = (b.T_world_robot.translation() - s.T_world_b.translation()).norm();
+  const double r_err = rotation_deg(b.T_world_robot, s.T_world_b);
+  std::printf("robot b: refined to %.4f m / %.3f deg of the truth (prior 0.1 m / 5 deg), status %s\n", t_err, r_err, b.merge_status.c_str());
+  EXPECT_LT(t_err, 0.01);
+  EXPECT_LT(r_err, 0.5);
+  EXPECT_FALSE(b.anchors.empty());
+  // Its trajectory in the world frame follows the refined transform.
+  const core::Trajectory world = server.world_trajectory(1);
+  ASSERT_EQ(world.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Isometry3d truth = pose({5.5 - 0.8 * k, 3.5, 1.0}, 3.0);
+    EXPECT_LT((world[static_cast<std::size_t>(k)].T_world_body.translation() - truth.translation()).norm(), 0.015);
+  }
+  EXPECT_GT(report.merge.cloud_world.size(), 0u);
+}
+
+TEST(Server, BadUpdatesAreCountedNotFatal) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a});
+  EXPECT_THROW(server.add_robot({0, "again", s.T_world_a}), InputError);
+  Eigen::Isometry3d sheared = Eigen::Isometry3d::Identity();
+  sheared.linear()(0, 1) = 0.5;
+  EXPECT_THROW(server.add_robot({5, "sheared", sheared}), InputError);
+
+  EXPECT_EQ(server.integrate(update(7, 0, 1, Eigen::Isometry3d::Identity())), IntegrateStatus::kUnknownRobot);
+  slam::AgentUpdate first = update(0, 3, 1'000, Eigen::Isometry3d::Identity());
+  first.new_keyframes.push_back(keyframe(0, 1'000, s.T_world_a, s.T_world_a, s.room, 0.0, 2.0));
+  first.new_keyframes.back().dense_cam->points[0] = Eigen::Vector3f(NAN, 0.0f, 1.0f);
+  EXPECT_EQ(server.integrate(first), IntegrateStatus::kAccepted);
+  EXPECT_EQ(server.integrate(first), IntegrateStatus::kOutOfOrder) << "a duplicate";
+  EXPECT_EQ(server.integrate(update(0, 2, 900, Eigen::Isometry3d::Identity())), IntegrateStatus::kOutOfOrder);
+  Eigen::Isometry3d nan_pose = Eigen::Isometry3d::Identity();
+  nan_pose.translation().x() = NAN;
+  EXPECT_EQ(server.integrate(update(0, 4, 2'000, nan_pose)), IntegrateStatus::kInvalid);
+  // A keyframe of a restarted map (component 1) cannot be placed by the prior.
+  slam::AgentUpdate restarted = update(0, 5, 3'000, Eigen::Isometry3d::Identity());
+  restarted.component = 1;
+  restarted.new_keyframes.push_back(keyframe(9, 3'000, s.T_world_a, s.T_world_a, s.room, 0.0, 1.0));
+  restarted.new_keyframes.back().component = 1;
+  EXPECT_EQ(server.integrate(restarted), IntegrateStatus::kAccepted);
+
+  const RobotCounters& c = server.counters(0);
+  EXPECT_EQ(c.updates, 2u);
+  EXPECT_EQ(c.rejected, 3u);
+  EXPECT_EQ(c.nan_points, 1u);
+  EXPECT_EQ(c.other_component_keyframes, 1u);
+  EXPECT_EQ(server.robot_keyframes(0).size(), 1u);
+  const core::PointCloud cloud = server.robot_cloud(0);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_TRUE(p.allFinite());
+  EXPECT_EQ(server.robot_trajectory(0).size(), 1u) << "the restarted map's frame is not placed";
+  EXPECT_THROW(server.robot_cloud(42), InputError);
+}
+
+TEST(Server, KeyframeCorrectionsAndRemovalMoveFramesAndClouds) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", Eigen::Isometry3d::Identity()});
+  slam::AgentUpdate u0 = update(0, 0, 1'000, Eigen::Isometry3d::Identity());
+  u0.new_keyframes.push_back(keyframe(0, 1'000, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(), s.room, 0.0, 1.0));
+  server.integrate(u0);
+  server.integrate(update(0, 1, 2'000, pose({0.1, 0, 0}, 0.0)));
+  // Local BA moves keyframe 0 by 5 cm: the frame after it moves too, and so does its cloud.
+  slam::AgentUpdate u2 = update(0, 2, 3'000, pose({0.25, 0, 0}, 0.0));
+  slam::KeyframeSnapshot moved = keyframe(0, 1'000, Eigen::Isometry3d::Identity(), pose({0.05, 0, 0}, 0.0), s.room, 0.0, 1.0);
+  moved.dense_cam.reset();  // pose only: the server keeps the cloud it has
+  u2.changed_keyframes.push_back(moved);
+  server.integrate(u2);
+  const core::Trajectory frames = server.robot_trajectory(0);
+  ASSERT_EQ(frames.size(), 3u);
+  EXPECT_NEAR(frames[1].T_world_body.translation().x(), 0.15, 1e-9);
+  const core::PointCloud cloud = server.robot_cloud(0);
+  EXPECT_FALSE(cloud.empty());
+  // Removing the keyframe keeps the frames (at its last pose) and drops its cloud.
+  slam::AgentUpdate u3 = update(0, 3, 4'000, pose({0.3, 0, 0}, 0.0));
+  u3.removed_keyframes.push_back(0);
+  server.integrate(u3);
+  EXPECT_EQ(server.robot_trajectory(0).size(), 4u);
+  EXPECT_TRUE(server.robot_cloud(0).empty());
+}
+
+TEST(Server, RobotThatNeverOverlapsKeepsItsPrior) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a});
+  const Eigen::Isometry3d far = pose({100.0, 0.0, 0.0}, 0.0);
+  server.add_robot({1, "far", far});
+  s.feed(server);  // robot 1's clouds are placed 100 m away by its prior
+  const ServerMergeReport& report = server.merge();
+  const RobotFusionReport& r = report.robots[1];
+  EXPECT_FALSE(r.registered);
+  EXPECT_EQ(r.overlap_points, 0u);
+  EXPECT_TRUE(r.T_world_robot.isApprox(far));
+  EXPECT_TRUE(r.anchors.empty());
+}
+
+TEST(Server, WritesItsOutputs) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a});
+  server.add_robot({1, "b", s.prior_b});
+  s.feed(server);
+  const fs::path dir = fs::path(FLEETSLAM_BINARY_DIR) / "test_output" / "central_server";
+  fs::remove_all(dir);
+  server.write_outputs(dir);
+  for (const char* file : {"merged_map.ply", "merge.json", "a/map.ply", "a/trajectory.txt", "b/trajectory_robot.txt"}) {
+    EXPECT_TRUE(fs::exists(dir / file)) << file;
+  }
+  const core::PointCloud merged = core::read_ply((dir / "merged_map.ply").string());
+  EXPECT_EQ(merged.size(), server.last_merge()->merge.cloud_world.size());
+}
+
+}  // namespace
+}  // namespace fleetslam::central
