@@ -8,6 +8,12 @@
 //   config.yaml              the effective agent config
 //   dense_map.ply            the agent's dense map (world = cam0 of the first tracked frame), when it has one
 //   metrics.json             frame counts, timing statistics and (with ground truth) the ATE
+// With --split N (the paper's multi-robot experiment, PAPER.md §5) the sequence's N consecutive parts
+// run as N robots, each with its own agent, whose first ground-truth pose is its initial-pose prior;
+// the central unit merges their dense maps and fuses their trajectories, and DIR gets the server's
+// outputs (merged_map.ply, <robot>/map.ply, <robot>/trajectory.txt in the world frame, merge.json),
+// <robot>/groundtruth.txt, central_config.yaml and metrics.json with each robot's ATE in the world frame
+// and the point counts before and after sampling.
 
 #include <unistd.h>
 
@@ -34,6 +40,8 @@
 #include "fleetslam/core/point_cloud.hpp"
 #include "fleetslam/core/trajectory.hpp"
 #include "fleetslam/core/trajectory_metrics.hpp"
+#include "fleetslam/central/link.hpp"
+#include "fleetslam/central/server.hpp"
 #include "fleetslam/slam/agent.hpp"
 
 namespace fleetslam::tools {
@@ -50,6 +58,8 @@ struct ReplayOptions {
   std::string groundtruth;
   std::string out = "replay_out";
   std::int64_t max_frames = -1;
+  int split = 1;
+  std::string central_config;
 };
 
 core::Logger make_cli_logger(const GlobalOptions& global) {
@@ -270,6 +280,96 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
               out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply");
 }
 
+central::ServerConfig server_config(const ReplayOptions& o) {
+  central::ServerConfig config;
+  if (!o.central_config.empty()) {
+    core::ConfigReader reader = core::ConfigReader::from_file(o.central_config).section("");
+    config.visit(reader);
+    reader.finish();
+  }
+  return config;
+}
+
+// The sequence's parts as robots: frame k of n goes to robot floor(k * parts / n).
+void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const slam::AgentConfig& config,
+                      core::FrameSource& source, const core::Logger& logger, const fs::path& out) {
+  const std::size_t total = source.size();
+  const std::size_t parts = static_cast<std::size_t>(o.split);
+  if (total < 2 * parts) {
+    throw InputError(o.dataset, "--split " + std::to_string(parts) + " needs at least " + std::to_string(2 * parts) +
+                                    " frames, the sequence has " + std::to_string(total));
+  }
+  const central::ServerConfig central_config = server_config(o);
+  RunLog::write_text(out / "central_config.yaml", core::config_to_yaml(central_config));
+  central::Server server(central_config, logger);
+  central::InProcessLink link;
+  std::vector<slam::Agent> agents;
+  std::vector<std::string> names;
+  std::vector<core::Trajectory> groundtruths(parts);
+  for (std::size_t r = 0; r < parts; ++r) {
+    agents.emplace_back(config, source.rig(), logger);
+    names.push_back(std::string("robot_") + static_cast<char>('a' + static_cast<int>(r % 26)) +
+                    (r >= 26 ? std::to_string(r / 26) : std::string()));
+  }
+  core::Progress progress = make_progress(total, logger);
+  std::size_t k = 0;
+  std::vector<std::int64_t> first_index(parts, -1);
+  while (std::optional<core::SensorFrame> frame = source.next()) {
+    const std::size_t r = std::min(parts - 1, k * parts / total);
+    if (first_index[r] < 0) {
+      if (!frame->T_world_cam_gt) {
+        throw InputError(o.dataset, "--split needs ground truth at each part's first frame (frame " +
+                                        std::to_string(k) + ") for the robot's initial-pose prior");
+      }
+      first_index[r] = static_cast<std::int64_t>(k);
+      server.add_robot(central::RobotSpec{static_cast<int>(r), names[r], *frame->T_world_cam_gt});
+    }
+    frame->robot_id = static_cast<int>(r);
+    frame->sequence = static_cast<std::int64_t>(k) - first_index[r];
+    if (frame->T_world_cam_gt) groundtruths[r].push_back({frame->t_ns, *frame->T_world_cam_gt});
+    link.send(agents[r].process(*frame));
+    server.integrate_all(link);
+    progress.update(++k);
+  }
+  progress.finish();
+  for (slam::Agent& agent : agents) agent.finish();
+  const central::ServerMergeReport& report = server.merge();
+  server.write_outputs(out);
+
+  nlohmann::json robots = nlohmann::json::array();
+  for (std::size_t r = 0; r < parts; ++r) {
+    const int id = static_cast<int>(r);
+    core::write_trajectory(out / names[r] / "groundtruth.txt", groundtruths[r], core::TrajectoryFormat::kTum);
+    const core::Trajectory world = server.world_trajectory(id);
+    nlohmann::json entry = {{"name", names[r]}, {"frames", groundtruths[r].size()}, {"tracked", world.size()},
+                            {"first_frame", first_index[r]}};
+    for (const auto& [mode, key] : {std::pair{core::AlignmentMode::kNone, "ate_world_m"}, std::pair{core::AlignmentMode::kSe3, "ate_se3_m"}}) {
+      const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world), mode);
+      if (ate.ok()) entry[key] = {{"rmse", ate.stats.rmse}, {"mean", ate.stats.mean}, {"max", ate.stats.max}};
+    }
+    robots.push_back(entry);
+  }
+  const central::MergeResult& m = report.merge;
+  const nlohmann::json metrics = {{"command", "fleetslam replay --split"}, {"dataset", o.dataset}, {"split", parts},
+                                  {"frames", total}, {"robots", robots}, {"merge", central::to_json(m)}};
+  RunLog::write_text(out / "metrics.json", metrics.dump(2) + "\n");
+  if (global.quiet) return;
+  for (const nlohmann::json& entry : robots) {
+    std::printf("%-12s %zu frames from %lld, tracked %zu", entry["name"].get<std::string>().c_str(),
+                entry["frames"].get<std::size_t>(), static_cast<long long>(entry["first_frame"].get<std::int64_t>()),
+                entry["tracked"].get<std::size_t>());
+    if (entry.contains("ate_world_m")) std::printf(", ATE in the world frame %.4f m", entry["ate_world_m"]["rmse"].get<double>());
+    std::printf("\n");
+  }
+  std::printf("merged map:  %zu points before sampling, %zu after (%+.2f %%), %zu after filtering\n",
+              m.points_before_sampling, m.points_after_sampling,
+              m.points_before_sampling > 0 ? 100.0 * (static_cast<double>(m.points_after_sampling) - static_cast<double>(m.points_before_sampling)) /
+                                                 static_cast<double>(m.points_before_sampling)
+                                           : 0.0,
+              m.points_after_filter);
+  std::printf("wrote:       %s/{merged_map.ply,merge.json,metrics.json,central_config.yaml,<robot>/...}\n", out.string().c_str());
+}
+
 void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger(global);
   std::optional<core::OrbSlamSettings> settings;
@@ -281,6 +381,10 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   fs::create_directories(out, ec);
   if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
   RunLog::write_text(out / "config.yaml", core::config_to_yaml(config));
+  if (o.split > 1) {
+    run_split_replay(o, global, config, *source, logger, out);
+    return;
+  }
 
   slam::Agent agent(config, source->rig(), logger);
   RunResult run = run_agent(agent, *source, logger);
@@ -333,6 +437,11 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
   cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--split", options->split,
+                  "Run the sequence's N consecutive parts as N robots (first ground-truth pose of each part as its "
+                  "prior) and merge their maps in the central unit")
+      ->check(CLI::Range(1, 26));
+  cmd->add_option("--central-config", options->central_config, "Central unit config YAML (with --split)");
   cmd->callback([options, &global] { run_replay(*options, global); });
 }
 
