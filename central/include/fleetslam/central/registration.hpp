@@ -55,9 +55,10 @@ struct RegistrationResult {
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  // maps source points onto the target
   bool converged = false;
   int iterations = 0;
-  // After alignment: mean squared distance from the source points to their nearest target point, over
-  // the source points that have one within max_correspondence_distance_m (PCL's getFitnessScore), and
-  // the share of source points that have one.
+  // After alignment, on the sampled sets: mean squared distance from the source points to their nearest
+  // target point, over the source points that have one within max_correspondence_distance_m (PCL's
+  // getFitnessScore), and the share of source points that have one. Sampling at voxel_size_m puts
+  // neighbours up to about that far apart, so the fitness says more about density than about accuracy.
   double fitness_m2 = std::numeric_limits<double>::infinity();
   double inlier_ratio = 0.0;
   std::size_t source_points = 0;  // used, after sampling

@@ -1,0 +1,205 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "fleetslam/central/map_merger.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/error.hpp"
+#include "synthetic_clouds.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// A robot seeing the room where x is in [x_min, x_max]: its cloud in its own frame (true pose
+// T_world_robot), and a prior that is the truth times `error` (an error in the robot's frame).
+RobotCloud robot(int id, float x_min, float x_max, const Eigen::Isometry3d& T_world_robot, const Eigen::Isometry3d& error,
+                 std::size_t points = 30000) {
+  RobotCloud r;
+  r.robot_id = id;
+  r.cloud_robot = core::transformed(synthetic::room_cloud(points, x_min, x_max, 0.003f, 100 + static_cast<std::uint32_t>(id)),
+                                    T_world_robot.inverse());
+  r.T_world_robot_prior = T_world_robot * error;
+  return r;
+}
+
+const Eigen::Isometry3d kPoseA = synthetic::pose(0.0, 0.0, 20.0, Eigen::Vector3d(1.5, 2.5, 1.2));
+const Eigen::Isometry3d kPoseB = synthetic::pose(0.0, 0.0, 160.0, Eigen::Vector3d(4.5, 2.5, 1.2));
+const Eigen::Isometry3d kPoseC = synthetic::pose(0.0, 0.0, -90.0, Eigen::Vector3d(5.0, 1.0, 1.0));
+
+void expect_pose_near(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth, double max_m, double max_deg) {
+  const auto [translation_m, rotation_rad] = synthetic::pose_error(estimate, truth);
+  EXPECT_LT(translation_m, max_m);
+  EXPECT_LT(rotation_rad, max_deg * kDeg);
+}
+
+TEST(MapMerger, RefinesAWrongPriorAndMergesSamplesAndFilters) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                          robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
+  const MergeResult result = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(result.robots.size(), 2u);
+  const RobotMergeReport& a = result.robots[0];
+  const RobotMergeReport& b = result.robots[1];
+  EXPECT_EQ(a.status, "reference");
+  EXPECT_TRUE(a.placed);
+  EXPECT_TRUE(a.T_world_robot.isApprox(kPoseA));
+  EXPECT_EQ(b.status, "fine matched");
+  EXPECT_TRUE(b.fine_matched);
+  EXPECT_GT(b.overlap_points, 1000u);
+  ASSERT_EQ(b.overlap_with.size(), 1u);
+  EXPECT_EQ(b.overlap_with[0].first, 0);
+  EXPECT_EQ(b.overlap_with[0].second, b.overlap_points);
+  EXPECT_TRUE(b.registration.converged);
+  EXPECT_LT(b.registration.fitness_m2, 0.1 * 0.1);  // 30k points sampled at 5 cm: neighbours cm apart
+  // The prior was 10 cm and 5 degrees off.
+  const auto [prior_m, prior_rad] = synthetic::pose_error(b.T_world_robot_prior, kPoseB);
+  EXPECT_GT(prior_m, 0.05);
+  EXPECT_GT(prior_rad, 4.0 * kDeg);
+  expect_pose_near(b.T_world_robot, kPoseB, 0.01, 0.5);
+
+  EXPECT_EQ(result.points_before_sampling, 60000u);
+  EXPECT_LT(result.points_after_sampling, result.points_before_sampling);
+  EXPECT_EQ(result.points_after_filter, result.points_after_sampling);
+  EXPECT_EQ(result.cloud_world.size(), result.points_after_filter);
+  EXPECT_TRUE(result.cloud_world.has_colors());
+  EXPECT_GE(result.timings.total_ms, result.timings.coarse_ms + result.timings.registration_ms);
+  EXPECT_GT(result.timings.coarse_ms, 0.0);
+  EXPECT_GT(result.timings.registration_ms, 0.0);
+
+  // The merged cloud lies on the room's surfaces: every point is close to a wall, floor, ceiling or box.
+  const core::Bounds3f box = core::bounds(result.cloud_world);
+  EXPECT_GT(box.min.x(), -0.05f);
+  EXPECT_LT(box.max.x(), 6.05f);
+}
+
+TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
+  // C sees x in [4.5, 6], which only B (x in [2, 5.2]) overlaps; C comes before B.
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d small_error = synthetic::pose(0.5, -0.5, 2.0, Eigen::Vector3d(0.05, 0.03, -0.02));
+  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 3.0f, kPoseA, identity),
+                                          robot(2, 4.5f, 6.0f, kPoseC, small_error, 15000),
+                                          robot(1, 2.0f, 5.2f, kPoseB, synthetic::prior_error())};
+  const MergeResult result = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(result.robots.size(), 3u);
+  EXPECT_EQ(result.robots[2].status, "fine matched");
+  expect_pose_near(result.robots[2].T_world_robot, kPoseB, 0.01, 0.5);
+  const RobotMergeReport& c = result.robots[1];
+  EXPECT_EQ(c.status, "fine matched");
+  expect_pose_near(c.T_world_robot, kPoseC, 0.01, 0.5);
+  // C's last coarse matching saw A and B, and its overlap is with B.
+  ASSERT_EQ(c.overlap_with.size(), 2u);
+  EXPECT_EQ(c.overlap_with[0].first, 0);
+  EXPECT_EQ(c.overlap_with[1].first, 1);
+  EXPECT_GT(c.overlap_with[1].second, c.overlap_with[0].second);
+}
+
+TEST(MapMerger, EmptyNaNAndNeverOverlappingRobotsLeaveTheOthersUnaffected) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                    robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
+  // NaN points in B.
+  for (std::size_t i = 0; i < robots[1].cloud_robot.size(); i += 100) {
+    robots[1].cloud_robot.points[i].y() = std::numeric_limits<float>::quiet_NaN();
+  }
+  // An empty robot, a robot in another building (100 m away) and one with a broken prior.
+  RobotCloud empty;
+  empty.robot_id = 7;
+  robots.push_back(empty);
+  RobotCloud elsewhere;  // a room like this one, but its prior puts it 100 m away
+  elsewhere.robot_id = 8;
+  elsewhere.cloud_robot = synthetic::room_cloud(5000, 0.0f, 6.0f, 0.003f, 8);
+  elsewhere.T_world_robot_prior = synthetic::pose(0, 0, 0, Eigen::Vector3d(100, 0, 0));
+  robots.push_back(elsewhere);
+  RobotCloud broken = robot(9, 0.0f, 6.0f, kPoseA, identity, 1000);
+  broken.T_world_robot_prior.matrix()(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  robots.push_back(broken);
+
+  const MergeResult result = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(result.robots.size(), 5u);
+  const RobotMergeReport& b = result.robots[1];
+  EXPECT_EQ(b.non_finite_removed, 300u);
+  EXPECT_EQ(b.points, 29700u);
+  EXPECT_EQ(b.status, "fine matched");
+  expect_pose_near(b.T_world_robot, kPoseB, 0.01, 0.5);
+
+  const RobotMergeReport& e = result.robots[2];
+  EXPECT_EQ(e.points, 0u);
+  EXPECT_TRUE(e.placed);
+  EXPECT_FALSE(e.fine_matched);
+  EXPECT_NE(e.status.find("empty"), std::string::npos);
+
+  const RobotMergeReport& far = result.robots[3];
+  EXPECT_TRUE(far.placed);
+  EXPECT_FALSE(far.fine_matched);
+  EXPECT_EQ(far.overlap_points, 0u);
+  EXPECT_EQ(far.status, "no overlap: prior kept");
+  EXPECT_TRUE(far.T_world_robot.isApprox(far.T_world_robot_prior));
+
+  const RobotMergeReport& bad = result.robots[4];
+  EXPECT_FALSE(bad.placed);
+  EXPECT_NE(bad.status.find("bad prior"), std::string::npos);
+
+  EXPECT_EQ(result.points_before_sampling, 30000u + 29700u + 5000u);
+  // The far robot's points are in the map, where its prior put them.
+  EXPECT_GT(core::bounds(result.cloud_world).max.x(), 100.0f);
+}
+
+TEST(MapMerger, CoarseOnlyAndNothingToMerge) {
+  MapMergerConfig config;
+  config.registration.enabled = false;
+  config.sampling.enabled = false;
+  config.filter.enabled = false;
+  const std::vector<RobotCloud> robots = {
+      robot(0, 0.0f, 4.0f, kPoseA, Eigen::Isometry3d::Identity(), 5000),
+      robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error(), 5000)};
+  const MergeResult result = MapMerger(config).merge(robots);
+  EXPECT_EQ(result.robots[1].status, "coarse only (registration disabled)");
+  EXPECT_TRUE(result.robots[1].T_world_robot.isApprox(robots[1].T_world_robot_prior));
+  EXPECT_EQ(result.cloud_world.size(), 10000u);
+  EXPECT_EQ(result.points_after_sampling, 10000u);
+
+  const MergeResult nothing = MapMerger(MapMergerConfig{}).merge({});
+  EXPECT_TRUE(nothing.cloud_world.empty());
+  EXPECT_TRUE(nothing.robots.empty());
+}
+
+TEST(MapMerger, DuplicateRobotIdsAreAnInputError) {
+  RobotCloud a;
+  a.robot_id = 3;
+  EXPECT_THROW(MapMerger(MapMergerConfig{}).merge({a, a}), InputError);
+}
+
+TEST(MapMerger, ConfigReadsFromYamlAndRejectsUnknownKeys) {
+  const std::string yaml =
+      "merge:\n"
+      "  coarse: {coarse_radius_m: 0.4}\n"
+      "  registration: {backend: pcl, max_iterations: 12, voxel_size_m: 0.1}\n"
+      "  min_overlap_points: 50\n"
+      "  sampling: {voxel_size_m: 0.03}\n"
+      "  filter: {enabled: false, neighbours: 8}\n";
+  const MapMergerConfig config =
+      core::load_config<MapMergerConfig>(core::ConfigReader::from_string(yaml, "merge.yaml"), "merge");
+  EXPECT_EQ(config.coarse.coarse_radius_m, 0.4);
+  EXPECT_EQ(config.registration.backend, RegistrationBackend::kPcl);
+  EXPECT_EQ(config.registration.max_iterations, 12);
+  EXPECT_EQ(config.min_overlap_points, 50);
+  EXPECT_EQ(config.sampling.voxel_size_m, 0.03);
+  EXPECT_FALSE(config.filter.enabled);
+  EXPECT_EQ(config.filter.neighbours, 8);
+  const std::string written = core::config_to_yaml(config);
+  EXPECT_NE(written.find("coarse_radius_m: 0.4"), std::string::npos) << written;
+  EXPECT_THROW(core::load_config<MapMergerConfig>(
+                   core::ConfigReader::from_string("merge: {sampling: {voxel: 1}}\n", "bad.yaml"), "merge"),
+               InputError);
+  EXPECT_THROW(core::load_config<MapMergerConfig>(
+                   core::ConfigReader::from_string("merge: {filter: {sigma_m: -1}}\n", "bad.yaml"), "merge"),
+               InputError);
+}
+
+}  // namespace
+}  // namespace fleetslam::central

@@ -1,0 +1,127 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "fleetslam/central/overlap.hpp"
+#include "fleetslam/core/error.hpp"
+#include "synthetic_clouds.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+// Brute-force mutual nearest neighbours within the radius (ties to the smaller index).
+Overlap brute_force(const core::PointCloud& a, const core::PointCloud& b, float radius) {
+  const auto nearest = [radius](const Eigen::Vector3f& q, const core::PointCloud& cloud) {
+    std::uint32_t best = std::numeric_limits<std::uint32_t>::max();
+    float best_d = radius * radius;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!cloud.points[i].allFinite()) continue;
+      const float d = (cloud.points[i] - q).squaredNorm();
+      if (d < best_d || (d == best_d && best == std::numeric_limits<std::uint32_t>::max())) {
+        best_d = d;
+        best = static_cast<std::uint32_t>(i);
+      }
+    }
+    return best;
+  };
+  Overlap overlap;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!a.points[i].allFinite()) continue;
+    const std::uint32_t j = nearest(a.points[i], b);
+    if (j == std::numeric_limits<std::uint32_t>::max()) continue;
+    if (nearest(b.points[j], a) != i) continue;
+    overlap.indices_a.push_back(static_cast<std::uint32_t>(i));
+    overlap.indices_b.push_back(j);
+  }
+  return overlap;
+}
+
+// A grid of points on a plane z = height, x in [x0, x1], y in [0, 1], every `step` metres.
+core::PointCloud plane(float x0, float x1, float height, float step) {
+  core::PointCloud cloud;
+  const int nx = static_cast<int>(std::lround((x1 - x0) / step));
+  const int ny = static_cast<int>(std::lround(1.0f / step));
+  for (int i = 0; i <= nx; ++i) {
+    for (int j = 0; j <= ny; ++j) {
+      cloud.push_back({x0 + step * static_cast<float>(i), step * static_cast<float>(j), height});
+    }
+  }
+  return cloud;
+}
+
+TEST(OverlapFinder, TwoOverlappingPlanesPairOnlyWhereTheyOverlap) {
+  const core::PointCloud a = plane(0.0f, 2.0f, 0.0f, 0.05f);
+  const core::PointCloud b = plane(1.0f, 3.0f, 0.04f, 0.05f);  // 4 cm above, overlapping on x in [1, 2]
+  OverlapConfig config;
+  config.coarse_radius_m = 0.1;
+  const Overlap overlap = OverlapFinder(config).find(a, b);
+  ASSERT_FALSE(overlap.empty());
+  EXPECT_EQ(overlap.indices_a.size(), overlap.indices_b.size());
+  for (std::size_t i = 0; i < overlap.size(); ++i) {
+    const Eigen::Vector3f& pa = a.points[overlap.indices_a[i]];
+    const Eigen::Vector3f& pb = b.points[overlap.indices_b[i]];
+    EXPECT_GE(pa.x(), 1.0f - 1e-4f);
+    EXPECT_LE(pb.x(), 2.0f + 1e-4f);
+    EXPECT_NEAR((pa - pb).norm(), 0.04f, 1e-4f);  // the grids line up: each pair is vertical
+    if (i > 0) {
+      EXPECT_LT(overlap.indices_a[i - 1], overlap.indices_a[i]);
+    }
+  }
+  EXPECT_EQ(overlap.size(), 21u * 21u);  // x in [1, 2] and y in [0, 1] at 5 cm
+  EXPECT_NEAR(overlap.mean_distance_m, 0.04, 1e-4);
+  const core::PointCloud selected = select_points(b, overlap.indices_b);
+  ASSERT_EQ(selected.size(), overlap.size());
+  EXPECT_EQ(selected.points[0], b.points[overlap.indices_b[0]]);
+}
+
+TEST(OverlapFinder, EqualsBruteForceOnRoomClouds) {
+  // Two rooms' worth of noisy points, B's cut shifted and turned a little: exact mutual pairs, ties
+  // included (a lattice part makes equal distances common).
+  core::PointCloud a = synthetic::room_cloud(2500, 0.0f, 4.0f, 0.01f, 1);
+  core::PointCloud b = core::transformed(synthetic::room_cloud(2500, 2.0f, 6.0f, 0.01f, 2),
+                                         synthetic::pose(1.0, -2.0, 3.0, Eigen::Vector3d(0.05, 0.02, -0.03)));
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3f lattice(2.0f + 0.1f * static_cast<float>(i % 10), 0.1f * static_cast<float>(i / 10), 0.0f);
+    a.push_back(lattice);
+    b.push_back(lattice + Eigen::Vector3f(0.05f, 0.0f, 0.0f));  // halfway: two A points at equal distance
+  }
+  a.points[10].x() = std::numeric_limits<float>::quiet_NaN();
+  b.points[20].z() = std::numeric_limits<float>::infinity();
+  for (const double radius : {0.05, 0.2, 0.6}) {
+    SCOPED_TRACE(radius);
+    OverlapConfig config;
+    config.coarse_radius_m = radius;
+    const Overlap overlap = OverlapFinder(config).find(a, b);
+    const Overlap expected = brute_force(a, b, static_cast<float>(radius));
+    EXPECT_FALSE(expected.empty());
+    EXPECT_EQ(overlap.indices_a, expected.indices_a);
+    EXPECT_EQ(overlap.indices_b, expected.indices_b);
+  }
+}
+
+TEST(OverlapFinder, DisjointOrEmptyCloudsHaveNoOverlap) {
+  const core::PointCloud a = plane(0.0f, 1.0f, 0.0f, 0.05f);
+  const core::PointCloud far = plane(5.0f, 6.0f, 0.0f, 0.05f);
+  const core::PointCloud above = plane(0.0f, 1.0f, 0.5f, 0.05f);  // parallel, farther than the radius
+  const OverlapFinder finder(OverlapConfig{});  // 0.3 m
+  EXPECT_TRUE(finder.find(a, far).empty());
+  EXPECT_TRUE(finder.find(a, above).empty());
+  EXPECT_TRUE(finder.find(a, core::PointCloud{}).empty());
+  EXPECT_TRUE(finder.find(core::PointCloud{}, a).empty());
+  core::PointCloud nan_only;
+  nan_only.push_back(Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_TRUE(finder.find(a, nan_only).empty());
+}
+
+TEST(OverlapFinder, RejectsANonPositiveRadius) {
+  OverlapConfig config;
+  config.coarse_radius_m = 0.0;
+  EXPECT_THROW(OverlapFinder{config}, InputError);
+}
+
+}  // namespace
+}  // namespace fleetslam::central

@@ -1,0 +1,114 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "fleetslam/central/registration.hpp"
+#include "fleetslam/core/error.hpp"
+#include "synthetic_clouds.hpp"
+
+namespace fleetslam::central {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+class GicpBackends : public ::testing::TestWithParam<RegistrationBackend> {};
+
+// Two independent noisy samplings of the room; the source is displaced by the prior error
+// (10 cm, 5 degrees), so the true T_target_source is that error.
+TEST_P(GicpBackends, RecoversA10cm5DegreePerturbationOnARoom) {
+  const core::PointCloud target = synthetic::room_cloud(40000, 0.0f, 6.0f, 0.003f, 1);
+  const Eigen::Isometry3d E = synthetic::prior_error();
+  // Source points are in a frame where T_target_source = E: p_source = E^-1 p_target.
+  const core::PointCloud source = core::transformed(synthetic::room_cloud(40000, 0.0f, 6.0f, 0.003f, 2), E.inverse());
+  RegistrationConfig config;
+  config.backend = GetParam();
+  const RegistrationResult result = GicpRegistration(config).align(source, target);
+  const auto [translation_m, rotation_rad] = synthetic::pose_error(result.T_target_source, E);
+  EXPECT_TRUE(result.converged) << result.status;
+  EXPECT_LT(translation_m, 0.01);
+  EXPECT_LT(rotation_rad, 0.5 * kDeg);
+  EXPECT_GT(result.iterations, 1);
+  // Two independent samplings, thinned to 5 cm: nearest neighbours are a few centimetres apart.
+  EXPECT_LT(result.fitness_m2, 0.05 * 0.05);
+  EXPECT_GT(result.inlier_ratio, 0.95);
+  EXPECT_GT(result.source_points, 1000u);  // sampled at 5 cm from 40k
+  EXPECT_LT(result.source_points, 40000u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, GicpBackends,
+                         ::testing::Values(RegistrationBackend::kNative, RegistrationBackend::kPcl),
+                         [](const ::testing::TestParamInfo<RegistrationBackend>& param_info) {
+                           return std::string(param_info.param == RegistrationBackend::kNative ? "native" : "pcl");
+                         });
+
+TEST(GicpRegistration, NativeIsAccurateWithoutSamplingAndFromAGuess) {
+  const core::PointCloud target = synthetic::room_cloud(8000, 0.0f, 6.0f, 0.002f, 3);
+  const Eigen::Isometry3d E = synthetic::pose(2.0, -1.0, 4.0, Eigen::Vector3d(0.05, -0.08, 0.03));
+  const core::PointCloud source = core::transformed(synthetic::room_cloud(8000, 0.0f, 6.0f, 0.002f, 4), E.inverse());
+  RegistrationConfig config;
+  config.voxel_size_m = 0.0;
+  const Eigen::Isometry3d guess = synthetic::pose(1.0, 0.0, 3.0, Eigen::Vector3d(0.03, -0.05, 0.0));
+  const RegistrationResult result = GicpRegistration(config).align(source, target, guess);
+  EXPECT_EQ(result.source_points, 8000u);
+  const auto [translation_m, rotation_rad] = synthetic::pose_error(result.T_target_source, E);
+  EXPECT_LT(translation_m, 0.01);
+  EXPECT_LT(rotation_rad, 0.5 * kDeg);
+}
+
+TEST(GicpRegistration, IdenticalCloudsGiveTheIdentity) {
+  const core::PointCloud cloud = synthetic::room_cloud(5000, 0.0f, 6.0f, 0.0f, 5);
+  const RegistrationResult result = GicpRegistration(RegistrationConfig{}).align(cloud, cloud);
+  EXPECT_TRUE(result.converged);
+  const auto [translation_m, rotation_rad] = synthetic::pose_error(result.T_target_source, Eigen::Isometry3d::Identity());
+  EXPECT_LT(translation_m, 1e-4);
+  EXPECT_LT(rotation_rad, 1e-4);
+  EXPECT_LT(result.fitness_m2, 1e-10);
+  EXPECT_EQ(result.inlier_ratio, 1.0);
+}
+
+TEST(GicpRegistration, FailuresAreInTheResult) {
+  const core::PointCloud room = synthetic::room_cloud(2000, 0.0f, 6.0f, 0.003f, 6);
+  core::PointCloud few;
+  few.push_back({0, 0, 0});
+  few.push_back({std::numeric_limits<float>::quiet_NaN(), 0, 0});
+  const Eigen::Isometry3d guess = synthetic::pose(0.0, 0.0, 10.0, Eigen::Vector3d(1, 2, 3));
+  const GicpRegistration gicp(RegistrationConfig{});
+  RegistrationResult result = gicp.align(few, room, guess);
+  EXPECT_FALSE(result.converged);
+  EXPECT_EQ(result.status, "too few points");
+  EXPECT_TRUE(result.T_target_source.isApprox(guess));
+  EXPECT_EQ(result.source_points, 1u);
+  EXPECT_EQ(gicp.align(room, core::PointCloud{}).status, "too few points");
+
+  // Far apart: no correspondence within the distance.
+  const core::PointCloud far = core::transformed(room, synthetic::pose(0, 0, 0, Eigen::Vector3d(50, 0, 0)));
+  result = gicp.align(far, room);
+  EXPECT_FALSE(result.converged);
+  EXPECT_EQ(result.status, "degenerate");
+  EXPECT_EQ(result.inlier_ratio, 0.0);
+
+  RegistrationConfig off;
+  off.enabled = false;
+  result = GicpRegistration(off).align(room, room, guess);
+  EXPECT_EQ(result.status, "disabled");
+  EXPECT_TRUE(result.T_target_source.isApprox(guess));
+}
+
+TEST(GicpRegistration, RejectsBadSettings) {
+  const auto rejects = [](auto change) {
+    RegistrationConfig config;
+    change(config);
+    EXPECT_THROW(GicpRegistration{config}, InputError);
+  };
+  rejects([](RegistrationConfig& c) { c.max_iterations = 0; });
+  rejects([](RegistrationConfig& c) { c.max_correspondence_distance_m = 0.0; });
+  rejects([](RegistrationConfig& c) { c.voxel_size_m = -0.1; });
+  rejects([](RegistrationConfig& c) { c.covariance_neighbours = 2; });
+  rejects([](RegistrationConfig& c) { c.plane_epsilon = 0.0; });
+  rejects([](RegistrationConfig& c) { c.translation_epsilon_m = -1.0; });
+}
+
+}  // namespace
+}  // namespace fleetslam::central
