@@ -55,9 +55,15 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
       tracker(c.tracking, c.keyframes, logger),
       mapper(c.mapping, logger),
       dense(c.dense, builder) {
+  if (config.place_recognition.enabled) {
+    vocabulary = load_place_vocabulary(config.place_recognition);
+    if (config.loop_closing.enabled) loop_closer.emplace(config.loop_closing, logger);
+  }
   if (config.threaded) {
     if (config.dense.enabled) dense_worker = std::make_unique<DenseWorker>(dense, logger);
-    worker = std::make_unique<MappingWorker>(mapper, map, map_mutex, changes, logger);
+    MappingWorker::AfterMapping after;
+    if (vocabulary) after = [this](KeyframeId id) { close_loop_threaded(id); };
+    worker = std::make_unique<MappingWorker>(mapper, map, map_mutex, changes, logger, std::move(after));
   }
 }
 

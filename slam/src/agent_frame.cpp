@@ -40,6 +40,9 @@ void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
   inputs.local_mapping_queue = worker ? worker->pending() : 0;
   inputs.local_mapping_idle = inputs.local_mapping_queue == 0;
   inputs.initial_T_world_cam = builder.T_cam0_rect0();  // the world is cam0 of the first frame
+  inputs.vocabulary = vocabulary.get();
+  inputs.database = vocabulary ? &database : nullptr;
+  inputs.bow_levels_up = config.place_recognition.levels_up;
   const Stopwatch watch;
   const TrackingResult tracked = tracker.track(frame, map, inputs);
   u.timings.tracking_ms = u.timings.extract_ms + watch.elapsed_ms();
@@ -49,6 +52,7 @@ void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
   u.tracking_state = tracked.state;
   u.inliers = tracked.inliers;
   u.reason = tracked.reason;
+  u.relocalized = tracked.relocalized;
   u.keyframe_decision = tracked.decision;
   u.component = tracker.component();
   u.status = tracked.initialized                          ? FrameStatus::kInitialized
@@ -77,6 +81,7 @@ void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, A
   MappingReport report;
   const KeyframeId id = mapper.insert_keyframe(frame, tracker.component(), tracked.initialized, map, &report);
   tracker.keyframe_inserted(id, map);
+  compute_bow(id);
   new_keyframes.push_back(id);
   reference = id;
   if (worker) {
@@ -87,6 +92,51 @@ void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, A
   mapper.process(id, map, report);
   u.timings.mapping_ms = watch.elapsed_ms();
   changes.record(report);
+  const Stopwatch loop_watch;
+  close_loop_inline(id);
+  u.timings.loop_ms = loop_watch.elapsed_ms();
+}
+
+void Agent::Impl::compute_bow(KeyframeId id) {
+  Keyframe* kf = map.keyframe(id);
+  if (!vocabulary || kf == nullptr) return;
+  BowTransform t = vocabulary->transform(kf->frame.descriptors, config.place_recognition.levels_up);
+  kf->bow = std::move(t.bow);
+  kf->bow_features = std::move(t.features);
+}
+
+void Agent::Impl::close_loop_inline(KeyframeId id) {
+  if (!vocabulary) return;
+  if (loop_closer) {
+    std::optional<LoopEvent> event = loop_closer->detect_and_correct(id, map, database, changes.changed);
+    if (event && config.loop_closing.global_ba) {
+      if (const auto problem = loop_closer->prepare_global_ba(map.keyframe(id)->component, map)) {
+        event->global_ba = loop_closer->apply_global_ba(*problem, loop_closer->solve_global_ba(*problem), map, changes.changed);
+      }
+    }
+    if (event) loops.push_back(*event);
+  }
+  if (const Keyframe* kf = map.keyframe(id); kf != nullptr && !kf->bow.empty()) database.add(id, kf->bow);
+}
+
+// Threaded mode: detection and correction hold the map lock (tracking waits for them), the global BA
+// solves on a copy without it; what changed meanwhile is skipped when the result is written back.
+void Agent::Impl::close_loop_threaded(KeyframeId id) {
+  std::optional<LoopEvent> event;
+  std::optional<GlobalBaProblem> problem;
+  {
+    const std::lock_guard<std::mutex> lock(map_mutex);
+    if (loop_closer) event = loop_closer->detect_and_correct(id, map, database, changes.changed);
+    if (const Keyframe* kf = map.keyframe(id); kf != nullptr && !kf->bow.empty()) database.add(id, kf->bow);
+    if (!event) return;
+    if (config.loop_closing.global_ba) problem = loop_closer->prepare_global_ba(map.keyframe(id)->component, map);
+    if (!problem) loops.push_back(*event);
+  }
+  if (!problem) return;
+  const BaResult result = loop_closer->solve_global_ba(*problem);
+  const std::lock_guard<std::mutex> lock(map_mutex);
+  event->global_ba = loop_closer->apply_global_ba(*problem, result, map, changes.changed);
+  loops.push_back(*event);
 }
 
 KeyframeSnapshot Agent::Impl::snapshot(const Keyframe& kf, bool with_dense) const {
@@ -139,6 +189,7 @@ void Agent::Impl::update_dense(const core::SensorFrame& sensor) {
 
 void Agent::Impl::report_changes(AgentUpdate& u) {
   for (KeyframeId id : changes.removed) {
+    database.erase(id);
     dense_changed.erase(id);
     const auto heir = map.live_keyframe(id);
     dense.remove_keyframe(id, heir);
@@ -156,6 +207,8 @@ void Agent::Impl::report_changes(AgentUpdate& u) {
   }
   dense_changed.clear();
   u.removed_keyframes = std::move(changes.removed);
+  u.loops = std::move(loops);
+  loops.clear();
   changes.changed.clear();
   changes.removed.clear();
 }

@@ -31,6 +31,11 @@ struct Agent::Impl {
   void track_and_map(Frame& frame, AgentUpdate& u);
   void insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference);
   void report_changes(AgentUpdate& u);
+  // BoW of a new keyframe; loop closing at a keyframe (deterministic mode: called inline; threaded mode:
+  // by the mapping worker without the map lock, which it takes itself) and its database entry.
+  void compute_bow(KeyframeId id);
+  void close_loop_inline(KeyframeId id);
+  void close_loop_threaded(KeyframeId id);
   // Dense clouds of the keyframes inserted in this call (inline, or queued to the dense worker) and
   // those the worker finished; culled keyframes hand their points over in report_changes.
   void update_dense(const core::SensorFrame& sensor);
@@ -47,6 +52,10 @@ struct Agent::Impl {
   LocalMapper mapper;
   DenseMapper dense;
   Map map;
+  std::shared_ptr<const Vocabulary> vocabulary;  // null when place recognition is disabled
+  KeyframeDatabase database;                     // guarded by map_mutex
+  std::optional<LoopCloser> loop_closer;
+  std::vector<LoopEvent> loops;                  // closed since the last update; guarded by map_mutex
   mutable std::mutex map_mutex;
   MappingChanges changes;                    // guarded by map_mutex
   std::vector<FrameRecord> records;          // guarded by map_mutex

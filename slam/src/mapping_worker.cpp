@@ -19,8 +19,9 @@ void MappingChanges::record(const MappingReport& report) {
 }
 
 MappingWorker::MappingWorker(LocalMapper& mapper, Map& map, std::mutex& map_mutex, MappingChanges& changes,
-                             core::Logger logger)
+                             core::Logger logger, AfterMapping after)
     : mapper_(mapper), map_(map), map_mutex_(map_mutex), changes_(changes), logger_(std::move(logger)),
+      after_(std::move(after)),
       thread_([this] { run(); }) {}
 
 MappingWorker::~MappingWorker() {
@@ -63,6 +64,7 @@ void MappingWorker::run() {
     }
     try {
       process(keyframe);
+      if (after_) after_(keyframe);
     } catch (const std::exception& e) {
       // A thread must not let an exception escape (std::terminate); the keyframe simply gets no upkeep.
       logger_->error("local mapping of keyframe {} failed: {}", keyframe, e.what());

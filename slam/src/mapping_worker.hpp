@@ -6,6 +6,7 @@
 
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -27,7 +28,10 @@ struct MappingChanges {
 
 class MappingWorker {
  public:
-  MappingWorker(LocalMapper& mapper, Map& map, std::mutex& map_mutex, MappingChanges& changes, core::Logger logger);
+  // Called on the worker after each keyframe's local mapping, without any lock held (loop closing).
+  using AfterMapping = std::function<void(KeyframeId)>;
+  MappingWorker(LocalMapper& mapper, Map& map, std::mutex& map_mutex, MappingChanges& changes, core::Logger logger,
+                AfterMapping after = {});
   ~MappingWorker();
   MappingWorker(const MappingWorker&) = delete;
   MappingWorker& operator=(const MappingWorker&) = delete;
@@ -47,6 +51,7 @@ class MappingWorker {
   std::mutex& map_mutex_;
   MappingChanges& changes_;
   core::Logger logger_;
+  AfterMapping after_;
 
   mutable std::mutex queue_mutex_;
   std::condition_variable wake_;

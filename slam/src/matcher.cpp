@@ -445,3 +445,54 @@ MatchResult match_by_projection(const Frame& a, const FeaturePoints& p_a, const 
 }
 
 }  // namespace fleetslam::slam
+
+namespace fleetslam::slam {
+
+std::vector<Match> search_by_bow(const Frame& a, const FeatureVector& words_a, const std::vector<bool>& usable_a,
+                                 const Frame& b, const FeatureVector& words_b, const std::vector<bool>& usable_b,
+                                 const BowMatchConfig& config) {
+  FLEETSLAM_CHECK(usable_a.empty() || usable_a.size() == a.size(), "search_by_bow: usable_a needs one entry per feature");
+  FLEETSLAM_CHECK(usable_b.empty() || usable_b.size() == b.size(), "search_by_bow: usable_b needs one entry per feature");
+  check_frame(a, "A", config.check_orientation);
+  check_frame(b, "B", config.check_orientation);
+  const auto ok_a = [&](int i) { return i >= 0 && static_cast<std::size_t>(i) < a.size() && (usable_a.empty() || usable_a[static_cast<std::size_t>(i)]); };
+  const auto ok_b = [&](int i) { return i >= 0 && static_cast<std::size_t>(i) < b.size() && (usable_b.empty() || usable_b[static_cast<std::size_t>(i)]); };
+  std::vector<Match> proposals;
+  auto ia = words_a.nodes.begin();
+  auto ib = words_b.nodes.begin();
+  while (ia != words_a.nodes.end() && ib != words_b.nodes.end()) {
+    if (ia->node < ib->node) { ++ia; continue; }
+    if (ib->node < ia->node) { ++ib; continue; }
+    for (int i : ia->features) {
+      if (!ok_a(i)) continue;
+      const std::uint8_t* query = a.descriptors.ptr<std::uint8_t>(i);
+      Nearest nearest;
+      for (int j : ib->features) {
+        if (ok_b(j)) offer(nearest, j, descriptor_distance(query, b.descriptors.ptr<std::uint8_t>(j)));
+      }
+      if (nearest.index < 0 || nearest.distance > config.max_distance) continue;
+      if (nearest.second_distance != kNoDistance &&
+          static_cast<double>(nearest.distance) > config.nn_ratio * static_cast<double>(nearest.second_distance)) {
+        continue;
+      }
+      proposals.push_back(Match{i, nearest.index, nearest.distance});
+    }
+    ++ia;
+    ++ib;
+  }
+  // One-to-one on B: the closest A feature wins (proposals come in node order, ties to the lower A index).
+  std::vector<Match> best_per_b(b.size());
+  for (const Match& m : proposals) {
+    Match& slot = best_per_b[static_cast<std::size_t>(m.b)];
+    if (slot.a < 0 || m.distance < slot.distance || (m.distance == slot.distance && m.a < slot.a)) slot = m;
+  }
+  std::vector<Match> matches;
+  for (const Match& m : best_per_b) {
+    if (m.a >= 0) matches.push_back(m);
+  }
+  std::sort(matches.begin(), matches.end(), [](const Match& x, const Match& y) { return x.a < y.a; });
+  if (config.check_orientation && !matches.empty()) matches = keep_consistent_rotation(matches, a, b);
+  return matches;
+}
+
+}  // namespace fleetslam::slam

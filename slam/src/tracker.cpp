@@ -43,15 +43,37 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   // Lost: a few frames try the reference keyframe from the last good pose (a blurred frame or two should
   // not cost the map); after that a new component starts.
   const bool recovering = state_ == TrackingState::kLost;
-  if (recovering && ++lost_frames_ > config_.recovery_frames) return initialize(frame, inputs);
+  const bool can_relocalize = config_.relocalization.enabled && inputs.vocabulary != nullptr &&
+                              inputs.database != nullptr && inputs.database->size() > 0;
+  const bool relocalizing = recovering && ++lost_frames_ > config_.recovery_frames;
+  if (relocalizing && !can_relocalize) return initialize(frame, inputs);
 
   TrackingResult result;
   result.features = static_cast<int>(frame.size());
   Working w(frame);
-  bool ok = !recovering && track_last_frame(w, map, result);
-  if (!ok) {
-    w.clear_matches();
-    ok = track_reference_keyframe(w, map, result, recovering);
+  bool ok = false;
+  if (relocalizing) {
+    ok = relocalize(w, map, inputs, result);
+    if (!ok && static_cast<int>(frame.size()) >= config_.init_min_features) {
+      if (!relocalization_failing_since_ns_) relocalization_failing_since_ns_ = frame.t_ns;
+      const double failing_s = core::ns_to_seconds(frame.t_ns - *relocalization_failing_since_ns_);
+      if (failing_s >= config_.relocalization.new_map_after_s) {
+        w.clear_matches();
+        TrackingResult started = initialize(frame, inputs);
+        if (started.initialized) {
+          started.reason = "relocalisation failed for " + core::format_seconds(
+              frame.t_ns - *relocalization_failing_since_ns_, 3) + " s: new map component";
+          logger_->warn("t={} {}", core::format_seconds(frame.t_ns, 6), started.reason);
+        }
+        return started;
+      }
+    }
+  } else {
+    ok = !recovering && track_last_frame(w, map, result);
+    if (!ok) {
+      w.clear_matches();
+      ok = track_reference_keyframe(w, map, result, recovering);
+    }
   }
   if (ok) ok = track_local_map(w, map, result);
   if (!ok) {
@@ -59,8 +81,16 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
     return result;
   }
   if (recovering) {
-    result.reason = "recovered after " + std::to_string(lost_frames_ - 1) + " lost frame(s)";
+    result.lost_s = core::ns_to_seconds(frame.t_ns - lost_since_ns_);
+    result.reason = std::string(result.relocalized ? "relocalised" : "recovered") + " after " +
+                    std::to_string(lost_frames_ - 1) + " lost frame(s) (" + core::format_seconds(frame.t_ns - lost_since_ns_, 3) +
+                    " s)";
     logger_->info("t={} {}", core::format_seconds(frame.t_ns, 6), result.reason);
+  }
+  relocalization_failing_since_ns_.reset();
+  if (result.relocalized) {
+    last_frame_.reset();  // no velocity across the gap
+    velocity_.reset();
   }
   state_ = TrackingState::kOk;
   lost_frames_ = 0;
@@ -80,6 +110,8 @@ void Tracker::lose(Working& w, const Map& map, TrackingResult& result) {
   if (state_ == TrackingState::kOk) {
     if (const auto T_cw = predicted_pose(map, w.frame.t_ns)) last_T_world_cam_ = T_cw->inverse();
     lost_frames_ = 1;
+    lost_since_ns_ = w.frame.t_ns;
+    relocalization_failing_since_ns_.reset();
   }
   state_ = TrackingState::kLost;  // the velocity stays: recovery predicts with it
   result.state = state_;
@@ -105,6 +137,7 @@ TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
   // (the true link between components is unknown until relocalisation / map merging).
   ++component_;
   lost_frames_ = 0;
+  relocalization_failing_since_ns_.reset();
   frame.T_world_cam = last_T_world_cam_.value_or(inputs.initial_T_world_cam);
   state_ = TrackingState::kOk;
   velocity_.reset();

@@ -31,7 +31,9 @@
 #include "fleetslam/slam/frame_builder.hpp"
 #include "fleetslam/slam/keyframe_policy.hpp"
 #include "fleetslam/slam/local_mapping.hpp"
+#include "fleetslam/slam/loop_closing.hpp"
 #include "fleetslam/slam/map.hpp"
+#include "fleetslam/slam/place_recognition.hpp"
 #include "fleetslam/slam/tracker.hpp"
 
 namespace fleetslam::slam {
@@ -47,6 +49,9 @@ struct AgentConfig {
   KeyframePolicyConfig keyframes = default_keyframes();
   LocalMappingConfig mapping;
   DenseMappingConfig dense;
+  // Vocabulary and BoW of keyframes (loop closing and relocalisation need them; disabled: neither runs).
+  PlaceRecognitionConfig place_recognition;
+  LoopClosingConfig loop_closing;
   bool threaded = false;
   int max_mapping_queue = 3;             // threaded: keyframes waiting beyond this are not inserted
   double dropped_frame_periods = 1.5;    // a gap longer than this many frame periods is reported
@@ -66,6 +71,9 @@ struct AgentConfig {
     v("tracking", tracking);
     v("mapping", mapping);
     v("dense", dense);
+    v("place_recognition", place_recognition);
+    v("loop_closing", loop_closing);
+    v("relocalization", tracking.relocalization);
     v("threaded", threaded);
     v("max_mapping_queue", max_mapping_queue, core::Limits<int>{1, 1000});
     v("dropped_frame_periods", dropped_frame_periods, core::Limits<double>{1.0, 1000.0});
@@ -103,6 +111,7 @@ struct AgentTimings {
   double tracking_ms = 0.0;    // extract + everything tracking did (the per-frame tracking cost)
   double mapping_ms = 0.0;     // inline local mapping (deterministic mode, keyframes only)
   double dense_ms = 0.0;       // dense mapping in this call (inline back-projection, insertion)
+  double loop_ms = 0.0;        // inline loop closing (deterministic mode, keyframes only; global BA included)
   double total_ms = 0.0;       // the whole process() call
 };
 
@@ -122,6 +131,9 @@ struct AgentUpdate {
   std::vector<KeyframeSnapshot> changed_keyframes;  // poses moved by local BA since the last update
   std::vector<KeyframeId> removed_keyframes;         // culled since the last update
   std::optional<KeyframeDecision> keyframe_decision;
+  // Loops closed since the last update (their moved keyframes are in changed_keyframes).
+  std::vector<LoopEvent> loops;
+  bool relocalized = false;  // this frame found the map again after tracking was lost
   AgentTimings timings;
 
   bool has_pose() const { return T_world_cam.has_value(); }
@@ -136,7 +148,8 @@ struct MapStats {
 
 class Agent {
  public:
-  // Throws InputError for a rig the front end cannot use or a sensor choice the rig does not have.
+  // Throws InputError for a rig the front end cannot use, a sensor choice the rig does not have, or a
+  // vocabulary that cannot be loaded (place_recognition.enabled).
   explicit Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger);
   ~Agent();
   Agent(Agent&&) noexcept;

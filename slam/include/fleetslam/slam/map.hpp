@@ -25,6 +25,7 @@
 
 #include "fleetslam/core/time.hpp"
 #include "fleetslam/slam/frame.hpp"
+#include "fleetslam/slam/vocabulary.hpp"
 
 namespace fleetslam::slam {
 
@@ -60,6 +61,8 @@ struct Keyframe {
   bool connected = false;  // update_connections found an older neighbour once (the parent is chosen then)
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
   Frame frame;        // features; frame.map_points holds the map point of each feature
+  BowVector bow;               // bag of words of frame.descriptors (empty without a vocabulary)
+  FeatureVector bow_features;  // its direct index (features grouped by vocabulary node)
 
   std::map<KeyframeId, int> connections;               // covisibility weights (shared map points)
   std::vector<std::pair<KeyframeId, int>> neighbours;  // the same, strongest first (ties: older first)

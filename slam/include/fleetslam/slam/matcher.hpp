@@ -42,6 +42,7 @@
 
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/slam/frame.hpp"
+#include "fleetslam/slam/vocabulary.hpp"
 
 namespace fleetslam::slam {
 
@@ -97,6 +98,28 @@ MatchResult match_brute_force(const Frame& a, const Frame& b, const MatcherConfi
 // rotation check, keypoints are checked (InvariantError). Empty frames give no matches.
 MatchResult match_by_projection(const Frame& a, const FeaturePoints& p_a, const Frame& b, const FeaturePoints& p_b,
                                 const Eigen::Isometry3d& T_a_b, const MatcherConfig& config);
+
+// BoW-guided matching (ORB-SLAM's SearchByBoW idea): only features that share a vocabulary node of the
+// direct index (FeatureVector, same levels_up for both) are compared. Each usable feature of A takes its
+// closest usable B feature in the node when the distance <= max_distance and <= nn_ratio * the second
+// closest; then one-to-one on B (the closest wins, the lower A index on ties); then the rotation
+// histogram as match_by_projection. usable_a / usable_b: per feature whether it takes part (empty: all;
+// otherwise one entry per feature, checked). Returns matches sorted by A index. Deterministic.
+struct BowMatchConfig {
+  int max_distance = 50;   // ORB-SLAM's TH_LOW
+  double nn_ratio = 0.75;
+  bool check_orientation = true;
+
+  template <class V>
+  void visit(V& v) {
+    v("max_distance", max_distance, core::Limits<int>{0, 256});
+    v("nn_ratio", nn_ratio, core::Limits<double>{0.1, 1.0});
+    v("check_orientation", check_orientation);
+  }
+};
+std::vector<Match> search_by_bow(const Frame& a, const FeatureVector& words_a, const std::vector<bool>& usable_a,
+                                 const Frame& b, const FeatureVector& words_b, const std::vector<bool>& usable_b,
+                                 const BowMatchConfig& config);
 
 // Stereo stripe search for rectified pairs (no cross-validation here, PAPER.md), after ORB-SLAM's
 // ComputeStereoMatches: for each left feature, the right features of levels within +-1 of its level on

@@ -8,8 +8,13 @@
 //         stage; then the local map (keyframes sharing points with the frame and their neighbours)
 //         projected with visibility checks, matched on the grid, pose optimised again;
 //   too few inliers -> lost; the next recovery_frames frames retry the reference keyframe from the last
-//         good pose; then the next frame with enough depth starts a new map component at the last
-//         known pose (relocalisation comes later).
+//         good pose; after that each frame tries relocalisation (below); when relocalisation has failed
+//         for relocalization.new_map_after_s on frames with enough features (blank frames do not count),
+//         the next frame with enough depth starts a new map component at the last known pose.
+// Relocalisation (ORB-SLAM's idea, written here): the frame's BoW vector against the keyframe database,
+// BoW matches with each candidate's map points, PnP-RANSAC (OpenCV) on the 2D-3D pairs, pose-only
+// optimisation, a guided search of the candidate's neighbourhood points by projection, optimisation again;
+// then the local map stage as for any frame.
 // The keyframe decision is the policy's (keyframe_policy.hpp), fed with the frame's real quantities.
 // The tracker reads and updates the map (tracking counters) but inserts nothing: the agent hands the
 // frame to local mapping when the result asks for a keyframe.
@@ -25,6 +30,7 @@
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/slam/frame.hpp"
+#include "fleetslam/slam/keyframe_database.hpp"
 #include "fleetslam/slam/keyframe_policy.hpp"
 #include "fleetslam/slam/map.hpp"
 #include "fleetslam/slam/map_projection.hpp"
@@ -35,6 +41,33 @@ namespace fleetslam::slam {
 
 enum class TrackingState { kNotInitialized, kOk, kLost };
 std::string to_string(TrackingState state);  // "not_initialized", "ok", "lost"
+
+struct RelocalizationConfig {
+  bool enabled = true;
+  int max_candidates = 5;            // best BoW candidates tried
+  int min_bow_matches = 15;
+  int ransac_iterations = 300;
+  double ransac_reprojection_px = 4.0;
+  int min_ransac_inliers = 12;
+  int min_inliers = 50;              // after optimisation and guided search
+  double new_map_after_s = 1.0;      // relocalisation failing this long (frames with features) -> new map
+  int search_neighbours = 10;        // candidate's covisible keyframes whose points the guided search uses
+  BowMatchConfig matching;
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("max_candidates", max_candidates, core::Limits<int>{1, 1000});
+    v("min_bow_matches", min_bow_matches, core::Limits<int>{4, 100000});
+    v("ransac_iterations", ransac_iterations, core::Limits<int>{1, 100000});
+    v("ransac_reprojection_px", ransac_reprojection_px, core::Limits<double>{0.1, 100.0});
+    v("min_ransac_inliers", min_ransac_inliers, core::Limits<int>{4, 100000});
+    v("min_inliers", min_inliers, core::Limits<int>{4, 100000});
+    v("new_map_after_s", new_map_after_s, core::Limits<double>{0.0, 1e6});
+    v("search_neighbours", search_neighbours, core::Limits<int>{0, 1000});
+    v("matching", matching);
+  }
+};
 
 // Matching and optimisation settings come in apart (the agent's `matching` and `optimizer` sections);
 // these are tracking's own.
@@ -55,6 +88,7 @@ struct TrackingConfig {
   // ORB-SLAM's temporary visual-odometry points: the last frame's close depth features without a map
   // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
   bool last_frame_depth_points = true;
+  RelocalizationConfig relocalization;  // the agent visits it as its own section
 
   // Window 10 px at level 0 (ORB-SLAM: 7 px for RGB-D / stereo) and cross-validation off by default
   // (tracker.cpp gives the measurements); matching.cross_validation switches it on.
@@ -84,6 +118,10 @@ struct TrackingInputs {
   double fps = 30.0;
   // Where a new map component starts when nothing better is known (the first one: the world origin).
   Eigen::Isometry3d initial_T_world_cam = Eigen::Isometry3d::Identity();
+  // Place recognition for relocalisation (none: a lost tracker only retries and starts new maps).
+  const Vocabulary* vocabulary = nullptr;
+  const KeyframeDatabase* database = nullptr;
+  int bow_levels_up = 2;
 };
 
 struct TrackingTimings {
@@ -95,7 +133,9 @@ struct TrackingTimings {
 struct TrackingResult {
   TrackingState state = TrackingState::kNotInitialized;
   bool initialized = false;  // this frame starts a map component (it becomes its first keyframe)
-  std::string stage;         // "init", "motion_model", "reference_keyframe", or empty when not tracked
+  std::string stage;         // "init", "motion_model", "reference_keyframe", "relocalization", or empty when not tracked
+  bool relocalized = false;  // this frame found the map again by relocalisation
+  double lost_s = 0.0;       // when recovered: time since the first lost frame
   std::string reason;        // why the frame is not tracked (empty when tracked)
   std::optional<Eigen::Isometry3d> T_world_cam;
   KeyframeId reference_keyframe = -1;
@@ -132,6 +172,9 @@ class Tracker {
   int match_reference(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw,
                       const MatcherConfig& matcher, TrackingResult& result);
   bool track_local_map(Working& w, Map& map, TrackingResult& result);
+  bool relocalize(Working& w, Map& map, const TrackingInputs& inputs, TrackingResult& result);
+  int relocalize_with(Working& w, const Keyframe& candidate, const FeatureVector& words, Map& map,
+                      TrackingResult& result);
   void lose(Working& w, const Map& map, TrackingResult& result);
   int optimize(Working& w, const Map& map, const Eigen::Isometry3d& T_cam_world_initial, TrackingResult& result);
   void decide_keyframe(Working& w, const Map& map, const TrackingInputs& inputs, TrackingResult& result);
@@ -146,6 +189,8 @@ class Tracker {
   TrackingState state_ = TrackingState::kNotInitialized;
   int component_ = -1;
   int lost_frames_ = 0;  // consecutive frames lost (the current one included)
+  core::TimeNs lost_since_ns_ = 0;  // first lost frame
+  std::optional<core::TimeNs> relocalization_failing_since_ns_;  // first failed try on a frame with features
   // The last tracked frame, its pose held relative to its reference keyframe so that it follows
   // local BA corrections (ORB-SLAM's UpdateLastFrame).
   std::optional<Frame> last_frame_;

@@ -1,0 +1,106 @@
+// Relocalisation of a lost tracker: BoW candidates, BoW matching, PnP-RANSAC, pose optimisation and a
+// guided search by projection.
+
+#include <set>
+
+#include <opencv2/calib3d.hpp>
+#include <spdlog/logger.h>
+
+#include "fleetslam/slam/tracker.hpp"
+#include "stopwatch.hpp"
+#include "tracker_working.hpp"
+
+namespace fleetslam::slam {
+
+bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, TrackingResult& result) {
+  const RelocalizationConfig& c = config_.relocalization;
+  if (w.frame.size() < 4 || inputs.vocabulary == nullptr || inputs.database == nullptr) {
+    result.reason = "relocalisation: no features";
+    return false;
+  }
+  const BowTransform bow = inputs.vocabulary->transform(w.frame.descriptors, inputs.bow_levels_up);
+  PlaceQuery query;
+  query.max_results = 0;
+  int tried = 0;
+  for (const PlaceCandidate& candidate : inputs.database->query(bow.bow, query)) {
+    const Keyframe* kf = map.keyframe(candidate.id);
+    if (kf == nullptr || kf->component != component_) continue;
+    if (++tried > c.max_candidates) break;
+    w.clear_matches();
+    const int inliers = relocalize_with(w, *kf, bow.features, map, result);
+    if (inliers >= c.min_inliers) {
+      reference_keyframe_ = kf->id;
+      result.stage = "relocalization";
+      result.relocalized = true;
+      logger_->info("t={} relocalised against keyframe {} (BoW score {:.3f}, {} inliers)",
+                    core::format_seconds(w.frame.t_ns, 6), kf->id, candidate.score, inliers);
+      return true;
+    }
+  }
+  w.clear_matches();
+  result.reason = "relocalisation failed (" + std::to_string(tried) + " candidates)";
+  return false;
+}
+
+// Inliers of the frame's pose found with one candidate keyframe (0 when it fails); the frame holds the
+// inlier matches and the pose then.
+int Tracker::relocalize_with(Working& w, const Keyframe& candidate, const FeatureVector& words, Map& map,
+                             TrackingResult& result) {
+  const RelocalizationConfig& c = config_.relocalization;
+  Frame& f = w.frame;
+  std::vector<bool> usable(candidate.frame.size(), false);
+  for (std::size_t i = 0; i < usable.size(); ++i) {
+    const MapPointId id = candidate.frame.map_points[i];
+    usable[i] = id != kNoMapPoint && map.point(id) != nullptr;
+  }
+  const std::vector<Match> matches =
+      search_by_bow(candidate.frame, candidate.bow_features, usable, f, words, {}, c.matching);
+  if (static_cast<int>(matches.size()) < c.min_bow_matches) return 0;
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  for (const Match& m : matches) {
+    const Eigen::Vector3d& p = map.point(candidate.frame.map_points[static_cast<std::size_t>(m.a)])->position;
+    object.emplace_back(p.x(), p.y(), p.z());
+    image.emplace_back(f.uv[static_cast<std::size_t>(m.b)].x(), f.uv[static_cast<std::size_t>(m.b)].y());
+  }
+  const cv::Matx33d K(f.camera.fx(), 0.0, f.camera.cx(), 0.0, f.camera.fy(), f.camera.cy(), 0.0, 0.0, 1.0);
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  const bool found = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, c.ransac_iterations,
+                                        static_cast<float>(c.ransac_reprojection_px), 0.99, inliers, cv::SOLVEPNP_EPNP);
+  if (!found || static_cast<int>(inliers.size()) < c.min_ransac_inliers) return 0;
+  cv::Matx33d R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d T_cw = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) T_cw.linear()(r, k) = R(r, k);
+    T_cw.translation()(r) = tvec.at<double>(r);
+  }
+  for (int k : inliers) {
+    const Match& m = matches[static_cast<std::size_t>(k)];
+    f.map_points[static_cast<std::size_t>(m.b)] = candidate.frame.map_points[static_cast<std::size_t>(m.a)];
+  }
+  int good = optimize(w, map, T_cw, result);
+  w.drop_outliers();
+  if (good < c.min_ransac_inliers) return 0;
+  if (good >= c.min_inliers) return good;
+  // Guided search: the candidate's neighbourhood points projected at the estimated pose.
+  const Eigen::Isometry3d T_cw_estimate = f.T_world_cam->inverse();
+  std::vector<KeyframeId> keyframes{candidate.id};
+  for (KeyframeId id : candidate.best_covisible(c.search_neighbours)) keyframes.push_back(id);
+  std::set<MapPointId> seen(f.map_points.begin(), f.map_points.end());
+  std::vector<ProjectedPoint> projected;
+  for (KeyframeId id : keyframes) {
+    for (MapPointId p : map.keyframe(id)->frame.map_points) {
+      const MapPoint* point = p == kNoMapPoint ? nullptr : map.point(p);
+      if (point == nullptr || !seen.insert(p).second) continue;
+      if (auto proj = project_map_point(*point, f, T_cw_estimate, config_.local_map)) projected.push_back(*proj);
+    }
+  }
+  search_by_projection(f, projected, map, config_.local_map);
+  good = optimize(w, map, T_cw_estimate, result);
+  w.drop_outliers();
+  return good;
+}
+
+}  // namespace fleetslam::slam
