@@ -32,4 +32,8 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global);
 // --max-images N --seed S]: train a bag-of-words vocabulary from ORB features; fleetslam vocab info FILE.
 void add_vocab_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--agent-config C] [--central-config C]
+// [--prior-error dx dy dz yaw_deg]: world, agents and central unit in lockstep, judged against ground truth.
+void add_run_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools

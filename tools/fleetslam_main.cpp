@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   fleetslam::tools::add_dataset_command(app, global);
   fleetslam::tools::add_generate_command(app, global);
   fleetslam::tools::add_replay_command(app, global);
+  fleetslam::tools::add_run_command(app, global);
   fleetslam::tools::add_vocab_command(app, global);
 
   try {
