@@ -18,28 +18,55 @@ core::PointCloud finite_points(const core::PointCloud& cloud, std::size_t& dropp
   return finite;
 }
 
-struct Candidate {
-  Eigen::Vector3f point;
-  std::uint32_t index;
+// The points of a voxel's neighbourhood, coordinates in separate arrays so that the distance loop
+// vectorises.
+struct Candidates {
+  std::vector<float> x, y, z;
+  std::vector<std::uint32_t> index;
+  std::vector<float> distance_sq;  // scratch, per query
+
+  void clear() {
+    x.clear();
+    y.clear();
+    z.clear();
+    index.clear();
+  }
+  void push_back(const Eigen::Vector3f& p, std::uint32_t i) {
+    x.push_back(p.x());
+    y.push_back(p.y());
+    z.push_back(p.z());
+    index.push_back(i);
+  }
 };
 
 struct Near {
   float distance_sq;
   std::uint32_t index;
+  Eigen::Vector3f point;
   bool before(const Near& other) const {
     return distance_sq < other.distance_sq || (distance_sq == other.distance_sq && index < other.index);
   }
 };
 
 // Up to k nearest candidates within radius_sq (the point itself included), nearest first.
-void nearest_candidates(const Eigen::Vector3f& query, const std::vector<Candidate>& candidates, std::size_t k,
-                        float radius_sq, std::vector<Near>& best) {
+void nearest_candidates(const Eigen::Vector3f& query, Candidates& candidates, std::size_t k, float radius_sq,
+                        std::vector<Near>& best) {
+  const std::size_t n = candidates.index.size();
+  candidates.distance_sq.resize(n);
+  const float qx = query.x(), qy = query.y(), qz = query.z();
+  const float* x = candidates.x.data();
+  const float* y = candidates.y.data();
+  const float* z = candidates.z.data();
+  float* d = candidates.distance_sq.data();
+  for (std::size_t j = 0; j < n; ++j) {
+    const float dx = x[j] - qx, dy = y[j] - qy, dz = z[j] - qz;
+    d[j] = dx * dx + dy * dy + dz * dz;
+  }
   best.clear();
   float worst = radius_sq;
-  for (const Candidate& c : candidates) {
-    const float d = (c.point - query).squaredNorm();
-    if (d > worst) continue;
-    const Near near{d, c.index};
+  for (std::size_t j = 0; j < n; ++j) {
+    if (d[j] > worst) continue;
+    const Near near{d[j], candidates.index[j], Eigen::Vector3f(x[j], y[j], z[j])};
     if (best.size() == k) {
       if (!near.before(best.back())) continue;
       best.pop_back();
@@ -78,26 +105,22 @@ FilterResult GaussianFilter::filter(const core::PointCloud& cloud) const {
   // Voxels of radius_m: a point's neighbours within radius_m lie in the 27 voxels around its own.
   // Points are processed voxel by voxel so that the candidates are gathered once per voxel.
   const detail::VoxelGrid grid(points, radius);
-  std::vector<Candidate> candidates;
+  detail::NeighbourSweep sweep(grid);
+  std::vector<std::uint32_t> neighbour_cells;
+  Candidates candidates;
   std::vector<Near> best;
   double shift_sum = 0.0;
   for (std::size_t cell = 0; cell < grid.cells(); ++cell) {
     candidates.clear();
-    const Eigen::Vector3i& v = grid.coord(cell);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          const long other = grid.find(v + Eigen::Vector3i(dx, dy, dz));
-          if (other < 0) continue;
-          for (const std::uint32_t* i = grid.cell_begin(static_cast<std::size_t>(other));
-               i != grid.cell_end(static_cast<std::size_t>(other)); ++i) {
-            candidates.push_back(Candidate{points[*i], *i});
-          }
-        }
-      }
+    sweep.neighbours(cell, neighbour_cells);
+    for (const std::uint32_t other : neighbour_cells) {
+      const std::uint32_t* index = grid.cell_begin(other);
+      const Eigen::Vector3f* position = grid.cell_points(other);
+      for (std::size_t j = 0; j < grid.cell_size(other); ++j) candidates.push_back(position[j], index[j]);
     }
-    for (const std::uint32_t* q = grid.cell_begin(cell); q != grid.cell_end(cell); ++q) {
-      const Eigen::Vector3f& x0 = points[*q];
+    const Eigen::Vector3f* cell_points = grid.cell_points(cell);
+    for (const std::uint32_t* q = grid.cell_begin(cell); q != grid.cell_end(cell); ++q, ++cell_points) {
+      const Eigen::Vector3f& x0 = *cell_points;
       nearest_candidates(x0, candidates, k, radius_sq, best);
       if (best.size() <= 1) {
         ++result.isolated;
@@ -107,7 +130,7 @@ FilterResult GaussianFilter::filter(const core::PointCloud& cloud) const {
       float weight_sum = 0.0f;
       for (const Near& n : best) {
         const float w = std::exp(-n.distance_sq * inverse_two_sigma_sq);
-        weighted += w * (points[n.index] - x0);
+        weighted += w * (n.point - x0);
         weight_sum += w;
       }
       const Eigen::Vector3f shift = weighted / weight_sum;

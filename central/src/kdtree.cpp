@@ -70,20 +70,34 @@ KdTree::KdTree(const std::vector<Eigen::Vector3f>& points, const Config& config)
   for (std::size_t i = 0; i < entries.size(); ++i) {
     points_[i] = entries[i].point;
     indices_[i] = entries[i].index;
+    lo_ = i == 0 ? points_[i] : lo_.cwiseMin(points_[i]);
+    hi_ = i == 0 ? points_[i] : hi_.cwiseMax(points_[i]);
   }
 }
 
+// Searches descend to the query's side first; the other side is visited only when the box it covers can
+// hold a point within the current bound. The distance to that box is tracked per axis (offsets), as in
+// nanoflann: it prunes far better in 3D than the distance to the last split plane alone.
+float KdTree::box_distance_sq(const Eigen::Vector3f& query, Eigen::Vector3f& offsets) const {
+  offsets = (lo_ - query).cwiseMax(query - hi_).cwiseMax(0.0f);
+  return offsets.squaredNorm();
+}
+
 Neighbour KdTree::nearest(const Eigen::Vector3f& query, float max_distance_m) const {
+  if (nodes_.empty() || !(max_distance_m >= 0.0f)) return Neighbour{};
   Neighbour best;
   best.distance_sq_m2 = max_distance_m * max_distance_m;
   best.index = Neighbour::kNone;
-  if (nodes_.empty() || !(max_distance_m >= 0.0f)) return Neighbour{};
-  nearest_in(0, query, best);
+  Eigen::Vector3f offsets;
+  const float box = box_distance_sq(query, offsets);
+  if (box > best.distance_sq_m2) return Neighbour{};
+  nearest_in(0, query, best, box, offsets);
   if (!best.found()) return Neighbour{};
   return best;
 }
 
-void KdTree::nearest_in(std::uint32_t id, const Eigen::Vector3f& query, Neighbour& best) const {
+void KdTree::nearest_in(std::uint32_t id, const Eigen::Vector3f& query, Neighbour& best, float box_sq,
+                        Eigen::Vector3f& offsets) const {
   const Node& node = nodes_[id];
   if (node.axis < 0) {
     for (std::uint32_t i = node.begin; i < node.end; ++i) {
@@ -96,19 +110,28 @@ void KdTree::nearest_in(std::uint32_t id, const Eigen::Vector3f& query, Neighbou
   const float diff = query[node.axis] - node.split;
   const std::uint32_t near_child = diff <= 0.0f ? id + 1 : node.right;
   const std::uint32_t far_child = diff <= 0.0f ? node.right : id + 1;
-  nearest_in(near_child, query, best);
-  if (diff * diff <= best.distance_sq_m2) nearest_in(far_child, query, best);
+  nearest_in(near_child, query, best, box_sq, offsets);
+  const float saved = offsets[node.axis];
+  const float far_box_sq = box_sq - saved * saved + diff * diff;
+  if (far_box_sq <= best.distance_sq_m2) {
+    offsets[node.axis] = diff;
+    nearest_in(far_child, query, best, far_box_sq, offsets);
+    offsets[node.axis] = saved;
+  }
 }
 
 void KdTree::knn(const Eigen::Vector3f& query, std::size_t k, float max_distance_m, std::vector<Neighbour>& out) const {
   out.clear();
   if (nodes_.empty() || k == 0 || !(max_distance_m >= 0.0f)) return;
   float worst_sq = max_distance_m * max_distance_m;
-  knn_in(0, query, k, worst_sq, out);
+  Eigen::Vector3f offsets;
+  const float box = box_distance_sq(query, offsets);
+  if (box > worst_sq) return;
+  knn_in(0, query, k, worst_sq, box, offsets, out);
 }
 
-void KdTree::knn_in(std::uint32_t id, const Eigen::Vector3f& query, std::size_t k, float& worst_sq,
-                    std::vector<Neighbour>& out) const {
+void KdTree::knn_in(std::uint32_t id, const Eigen::Vector3f& query, std::size_t k, float& worst_sq, float box_sq,
+                    Eigen::Vector3f& offsets, std::vector<Neighbour>& out) const {
   const Node& node = nodes_[id];
   if (node.axis < 0) {
     for (std::uint32_t i = node.begin; i < node.end; ++i) {
@@ -127,8 +150,14 @@ void KdTree::knn_in(std::uint32_t id, const Eigen::Vector3f& query, std::size_t 
   const float diff = query[node.axis] - node.split;
   const std::uint32_t near_child = diff <= 0.0f ? id + 1 : node.right;
   const std::uint32_t far_child = diff <= 0.0f ? node.right : id + 1;
-  knn_in(near_child, query, k, worst_sq, out);
-  if (diff * diff <= worst_sq) knn_in(far_child, query, k, worst_sq, out);
+  knn_in(near_child, query, k, worst_sq, box_sq, offsets, out);
+  const float saved = offsets[node.axis];
+  const float far_box_sq = box_sq - saved * saved + diff * diff;
+  if (far_box_sq <= worst_sq) {
+    offsets[node.axis] = diff;
+    knn_in(far_child, query, k, worst_sq, far_box_sq, offsets, out);
+    offsets[node.axis] = saved;
+  }
 }
 
 void KdTree::radius(const Eigen::Vector3f& query, float radius_m, std::vector<Neighbour>& out) const {

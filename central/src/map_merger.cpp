@@ -69,13 +69,56 @@ std::string describe(const Eigen::Isometry3d& T) {
 MapMerger::MapMerger(const Config& config, core::Logger logger)
     : config_(config),
       overlap_(config.coarse),
+      refine_overlap_(OverlapConfig{config.refine_radius_m}),
       registration_(config.registration),
       sampler_(config.sampling),
       filter_(config.filter),
       logger_(logger ? std::move(logger) : core::null_logger()) {
   if (config_.min_overlap_points < 1) throw InputError("min_overlap_points", "must be at least 1");
+  if (config_.refinement_rounds < 1) throw InputError("refinement_rounds", "must be at least 1");
   if (!(config_.min_inlier_ratio >= 0.0 && config_.min_inlier_ratio <= 1.0)) {
     throw InputError("min_inlier_ratio", "must be in [0, 1]");
+  }
+}
+
+// Fine matching (see the header): GICP on the overlap sets, then, for each further refinement round, the
+// overlap sets chosen again with the refined pose (radius refine_radius_m) and GICP again. A round that
+// fails ends the refinement with the last good pose; when the first fails, the prior stands.
+void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
+                           core::PointCloud& cloud_world, MergeTimings& timings) const {
+  Overlap overlap = coarse;
+  for (int round = 1; round <= config_.refinement_rounds; ++round) {
+    if (round > 1) {
+      const Clock::time_point stage = Clock::now();
+      overlap = refine_overlap_.find(merged, cloud_world);
+      timings.coarse_ms += ms_since(stage);
+      if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) break;
+    }
+    const Clock::time_point stage = Clock::now();
+    const RegistrationResult r = registration_.align(select_points(cloud_world, overlap.indices_b),
+                                                     select_points(merged, overlap.indices_a));
+    timings.registration_ms += ms_since(stage);
+    const bool usable = (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio;
+    logger_->info("merge: robot {}: round {}: GICP {} after {} iterations on {}/{} points ({} overlap pairs), fitness "
+                  "{:.3g} m^2, inliers {:.2f}, correction {}",
+                  report.robot_id, round, r.status, r.iterations, r.source_points, r.target_points, overlap.size(),
+                  r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
+    if (!usable) {
+      if (round == 1) {
+        report.registration = r;
+        report.status = "registration discarded (" + r.status + ", inlier ratio " + std::to_string(r.inlier_ratio) +
+                        "): prior kept";
+        logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+      }
+      return;
+    }
+    core::transform_in_place(cloud_world, r.T_target_source);
+    report.T_world_robot = r.T_target_source * report.T_world_robot;
+    report.registration = r;
+    report.refinement_rounds = round;
+    report.refined_overlap_points = overlap.size();
+    report.fine_matched = true;
+    report.status = "fine matched";
   }
 }
 
@@ -161,26 +204,7 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
         continue;
       }
       if (config_.registration.enabled) {
-        stage = Clock::now();
-        report.registration = registration_.align(select_points(clouds_world[i], overlap.indices_b),
-                                                  select_points(merged.cloud, overlap.indices_a));
-        result.timings.registration_ms += ms_since(stage);
-        const RegistrationResult& r = report.registration;
-        const bool usable = (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio;
-        logger_->info("merge: robot {}: GICP {} after {} iterations on {}/{} points, fitness {:.3g} m^2, inliers {:.2f}, "
-                      "correction {}",
-                      report.robot_id, r.status, r.iterations, r.source_points, r.target_points, r.fitness_m2,
-                      r.inlier_ratio, describe(r.T_target_source));
-        if (usable) {
-          core::transform_in_place(clouds_world[i], r.T_target_source);
-          report.T_world_robot = r.T_target_source * report.T_world_robot_prior;
-          report.fine_matched = true;
-          report.status = "fine matched";
-        } else {
-          report.status = "registration discarded (" + r.status + ", inlier ratio " + std::to_string(r.inlier_ratio) +
-                          "): prior kept";
-          logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
-        }
+        fine_match(report, overlap, merged.cloud, clouds_world[i], result.timings);
       } else {
         report.status = "coarse only (registration disabled)";
       }

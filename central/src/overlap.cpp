@@ -11,33 +11,57 @@
 namespace fleetslam::central {
 namespace {
 
-// Finite points of `cloud` within `radius` of some finite point of `other`, as a voxel test: voxels
-// slightly larger than the radius, so any such pair lies in neighbouring voxels. The indices come out
-// voxel by voxel (spatially coherent queries later).
-std::vector<std::uint32_t> points_near(const core::PointCloud& cloud, const core::PointCloud& other, float voxel_size) {
-  const detail::VoxelGrid grid(cloud.points, voxel_size);
-  const float inverse_size = 1.0f / voxel_size;
-  detail::VoxelMap other_voxels(other.size() / 8 + 1);
-  for (const Eigen::Vector3f& p : other.points) {
-    if (p.allFinite()) other_voxels.insert(detail::pack_voxel(detail::voxel_of(p, inverse_size)), 0);
+// Voxels holding a finite point of the cloud.
+detail::VoxelMap occupied_voxels(const core::PointCloud& cloud, float inverse_size) {
+  detail::VoxelMap voxels(1024);
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (p.allFinite()) voxels.insert(detail::pack_voxel(detail::voxel_of(p, inverse_size)), 0);
   }
+  return voxels;
+}
+
+// Finite points of `cloud` (ascending indices) in a voxel next to one of `other_voxels`: with voxels
+// slightly larger than the radius, every point within the radius of the other cloud is among them.
+// Voxels are large, so both maps stay small and cache-resident; each voxel's verdict is memoised.
+std::vector<std::uint32_t> points_near(const core::PointCloud& cloud, const detail::VoxelMap& other_voxels,
+                                       float inverse_size) {
+  detail::VoxelMap verdicts(1024);  // voxel -> 1 near, 0 not
   std::vector<std::uint32_t> near;
-  for (std::size_t cell = 0; cell < grid.cells(); ++cell) {
-    const Eigen::Vector3i& v = grid.coord(cell);
-    bool any = false;
-    for (int dx = -1; dx <= 1 && !any; ++dx) {
-      for (int dy = -1; dy <= 1 && !any; ++dy) {
-        for (int dz = -1; dz <= 1 && !any; ++dz) {
-          any = other_voxels.find(detail::pack_voxel(v + Eigen::Vector3i(dx, dy, dz))) != nullptr;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    if (!p.allFinite()) continue;
+    const Eigen::Vector3i v = detail::voxel_of(p, inverse_size);
+    const std::uint64_t key = detail::pack_voxel(v);
+    const std::uint32_t* known = verdicts.find(key);
+    std::uint32_t is_near = known ? *known : 0;
+    if (!known) {
+      for (int dx = -1; dx <= 1 && !is_near; ++dx) {
+        for (int dy = -1; dy <= 1 && !is_near; ++dy) {
+          for (int dz = -1; dz <= 1 && !is_near; ++dz) {
+            is_near = other_voxels.find(detail::pack_voxel(v + Eigen::Vector3i(dx, dy, dz))) != nullptr ? 1 : 0;
+          }
         }
       }
+      verdicts.insert(key, is_near);
     }
-    if (!any) continue;
-    for (const std::uint32_t* i = grid.cell_begin(cell); i != grid.cell_end(cell); ++i) {
-      if (cloud.points[*i].allFinite()) near.push_back(*i);
-    }
+    if (is_near) near.push_back(static_cast<std::uint32_t>(i));
   }
   return near;
+}
+
+constexpr float kQueryVoxelsPerMetre = 10.0f;  // 10 cm voxels order the queries
+
+// The indices reordered voxel by voxel (fine voxels): spatially coherent kd-tree queries hit the cache.
+std::vector<std::uint32_t> in_voxel_order(const core::PointCloud& cloud, const std::vector<std::uint32_t>& indices,
+                                          float inverse_size) {
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(indices.size());
+  for (std::size_t i = 0; i < indices.size(); ++i) {
+    keyed[i] = {detail::pack_voxel(detail::voxel_of(cloud.points[indices[i]], inverse_size)), indices[i]};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::uint32_t> ordered(indices.size());
+  for (std::size_t i = 0; i < keyed.size(); ++i) ordered[i] = keyed[i].second;
+  return ordered;
 }
 
 std::vector<Eigen::Vector3f> gather(const core::PointCloud& cloud, const std::vector<std::uint32_t>& indices) {
@@ -63,18 +87,18 @@ Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCl
   const auto radius = static_cast<float>(config_.coarse_radius_m);
   const float voxel_size = radius * 1.01f;  // margin for the rounding of floor(p / size)
 
-  // Only these can pair at all. The trees hold points in ascending index order, so that their
-  // tie-breaking (smaller tree index) is the documented one (smaller cloud index).
-  std::vector<std::uint32_t> a_near = points_near(a_world, b_world, voxel_size);
-  const std::vector<std::uint32_t> b_near = points_near(b_world, a_world, voxel_size);
+  // Only these can pair at all (ascending indices: the trees then break ties by the smaller cloud index,
+  // as documented).
+  const float inverse_size = 1.0f / voxel_size;
+  const std::vector<std::uint32_t> a_near = points_near(a_world, occupied_voxels(b_world, inverse_size), inverse_size);
+  const std::vector<std::uint32_t> b_near = points_near(b_world, occupied_voxels(a_world, inverse_size), inverse_size);
   if (a_near.empty() || b_near.empty()) return overlap;
-  std::sort(a_near.begin(), a_near.end());
 
   // Nearest point of A for each candidate of B.
   const KdTree tree_a(gather(a_world, a_near));
   std::vector<std::uint32_t> nearest_a(b_world.size(), Neighbour::kNone);
   std::vector<std::uint32_t> b_hit;
-  for (std::uint32_t b : b_near) {
+  for (std::uint32_t b : in_voxel_order(b_world, b_near, kQueryVoxelsPerMetre)) {
     const Neighbour n = tree_a.nearest(b_world.points[b], radius);
     if (!n.found()) continue;
     nearest_a[b] = a_near[n.index];
@@ -85,20 +109,29 @@ Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCl
   // Nearest point of B for each A point that some B point chose. Any B point nearer to such an a than
   // its chooser is within the radius of a, so it has a nearest point in A too: the tree over b_hit
   // answers exactly.
-  std::vector<char> chosen(a_world.size(), 0);
-  for (std::uint32_t b : b_hit) chosen[nearest_a[b]] = 1;
+  std::vector<std::uint32_t> chosen;
+  {
+    std::vector<char> is_chosen(a_world.size(), 0);
+    for (std::uint32_t b : b_hit) is_chosen[nearest_a[b]] = 1;
+    for (std::size_t a = 0; a < a_world.size(); ++a) {
+      if (is_chosen[a]) chosen.push_back(static_cast<std::uint32_t>(a));
+    }
+  }
   std::sort(b_hit.begin(), b_hit.end());
   const KdTree tree_b(gather(b_world, b_hit));
-  double distance_sum = 0.0;
-  for (std::size_t a = 0; a < a_world.size(); ++a) {
-    if (!chosen[a]) continue;
+  std::vector<Neighbour> partner(a_world.size());  // mutual partner in B (index into b_world), if any
+  for (std::uint32_t a : in_voxel_order(a_world, chosen, kQueryVoxelsPerMetre)) {
     const Neighbour n = tree_b.nearest(a_world.points[a], radius);
     if (!n.found()) continue;
     const std::uint32_t b = b_hit[n.index];
-    if (nearest_a[b] != a) continue;  // not mutual
-    overlap.indices_a.push_back(static_cast<std::uint32_t>(a));
-    overlap.indices_b.push_back(b);
-    distance_sum += std::sqrt(static_cast<double>(n.distance_sq_m2));
+    if (nearest_a[b] == a) partner[a] = Neighbour{b, n.distance_sq_m2};
+  }
+  double distance_sum = 0.0;
+  for (std::uint32_t a : chosen) {
+    if (!partner[a].found()) continue;
+    overlap.indices_a.push_back(a);
+    overlap.indices_b.push_back(partner[a].index);
+    distance_sum += std::sqrt(static_cast<double>(partner[a].distance_sq_m2));
   }
   if (!overlap.empty()) overlap.mean_distance_m = distance_sum / static_cast<double>(overlap.size());
   return overlap;

@@ -56,16 +56,19 @@ class KdTree {
     std::uint32_t right = 0;  // the left child is the next node
   };
 
-  std::uint32_t build(std::size_t begin, std::size_t end);
-  void nearest_in(std::uint32_t node, const Eigen::Vector3f& query, Neighbour& best) const;
-  void knn_in(std::uint32_t node, const Eigen::Vector3f& query, std::size_t k, float& worst_sq,
-              std::vector<Neighbour>& out) const;
+  float box_distance_sq(const Eigen::Vector3f& query, Eigen::Vector3f& offsets) const;
+  void nearest_in(std::uint32_t node, const Eigen::Vector3f& query, Neighbour& best, float box_sq,
+                  Eigen::Vector3f& offsets) const;
+  void knn_in(std::uint32_t node, const Eigen::Vector3f& query, std::size_t k, float& worst_sq, float box_sq,
+              Eigen::Vector3f& offsets, std::vector<Neighbour>& out) const;
   void radius_in(std::uint32_t node, const Eigen::Vector3f& query, float radius_sq, std::vector<Neighbour>& out) const;
 
   Config config_;
   std::vector<Eigen::Vector3f> points_;  // reordered
   std::vector<std::uint32_t> indices_;   // original index of points_[i]
   std::vector<Node> nodes_;
+  Eigen::Vector3f lo_ = Eigen::Vector3f::Zero();  // bounds of all points
+  Eigen::Vector3f hi_ = Eigen::Vector3f::Zero();
 };
 
 }  // namespace fleetslam::central

@@ -33,7 +33,7 @@ struct RegistrationConfig {
   // Converged when one update moves less than both epsilons.
   double translation_epsilon_m = 1e-4;
   double rotation_epsilon_rad = 1e-4;
-  double voxel_size_m = 0.05;     // uniform pre-sampling of both sets (0: none)
+  double voxel_size_m = 0.1;      // uniform pre-sampling of both sets (0: none); see bench_merge.cpp
   int covariance_neighbours = 20;  // PCL's default k
   double plane_epsilon = 1e-3;     // PCL's gicp_epsilon
 
