@@ -14,6 +14,8 @@ packages=(
   libmujoco-dev libosmesa6-dev libqhull-dev  # mujocoConfig.cmake names libqhull_r headers
   # slam (bundle adjustment, pose optimisation)
   libceres-dev
+  # central (map merging: PCL's GICP as the comparison backend)
+  libpcl-dev
 )
 
 missing=()
