@@ -52,7 +52,7 @@ struct LoopClosingConfig {
   int strong_covisibility = 100;   // shared points for a covisibility edge of the essential graph
   int pose_graph_iterations = 20;
   bool global_ba = true;
-  int global_ba_iterations = 10;
+  int global_ba_iterations = 20;
   std::int64_t seed = 0;
   BowMatchConfig matching;
   ProjectionSearchConfig search;   // guided matching and fusion
