@@ -193,7 +193,24 @@ TEST(AgentSynthetic, BadInputIsReportedNotFatal) {
   EXPECT_NE(after_gap.reason.find("gap"), std::string::npos) << after_gap.reason;
   for (std::size_t i = 17; i < 20; ++i) EXPECT_EQ(agent.process(frames[i]).status, FrameStatus::kTracked) << i;
 
-  // Lost for longer than the recovery frames: a new map component starts, and tracking goes on in it.
+  // Lost for longer than the recovery frames: relocalisation finds the map again (same component).
+  for (std::size_t i = 20; i < 27; ++i) {
+    EXPECT_EQ(agent.process(with_image(frames[i], cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)))).status,
+              FrameStatus::kLost);
+  }
+  const AgentUpdate relocalized = agent.process(frames[27]);
+  EXPECT_EQ(relocalized.status, FrameStatus::kTracked);
+  EXPECT_TRUE(relocalized.relocalized) << relocalized.reason;
+  for (std::size_t i = 28; i < 35; ++i) EXPECT_EQ(agent.process(frames[i]).status, FrameStatus::kTracked) << i;
+  EXPECT_EQ(agent.map_stats().components, 1);
+}
+
+TEST(AgentSynthetic, WithoutRelocalizationALongLossStartsANewComponent) {
+  const std::vector<core::SensorFrame>& frames = sequence(core::SensorMode::kRgbd);
+  AgentConfig config;
+  config.tracking.relocalization.enabled = false;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  for (std::size_t i = 0; i < 20; ++i) agent.process(frames[i]);
   for (std::size_t i = 20; i < 27; ++i) {
     EXPECT_EQ(agent.process(with_image(frames[i], cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)))).status,
               FrameStatus::kLost);
