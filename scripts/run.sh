@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# The main job. Until the closed-loop scenario exists this is the furthest pipeline that works:
-# stream the real TUM RGB-D and EuRoC sequences through the dataset readers, run one SLAM agent over the
-# real TUM RGB-D excerpt (trajectory, keyframes, timings, ATE), evaluate its trajectory and real
-# reference trajectories against ground truth (metrics.json and SVG plots), and generate a short
-# synthetic sequence from the office scene, all under out/.
+# The main job: the two-robot office scenario with the whole system in lockstep (world, one agent per
+# robot, central unit merging their maps; judged against ground truth), then the real data: the dataset
+# readers on TUM RGB-D and EuRoC, one agent over the real TUM excerpt (trajectory, keyframes, dense map,
+# timings, ATE), the paper's split experiment (its halves as two robots merged by the central unit), real
+# reference trajectories evaluated, and a short synthetic sequence generated, all under out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh release
@@ -18,10 +18,13 @@ fi
 "$cli" dataset info "$data/tum/rgbd_dataset_freiburg1_rpy_200"
 "$cli" dataset info "$data/euroc/V1_01_easy_micro" \
   --groundtruth "$data/euroc/V1_01_easy_micro/groundtruth_leftcam_tum.txt"
-rm -rf "$out/replay_tum_fr1_rpy" "$out/office_tum"
+rm -rf "$out/replay_tum_fr1_rpy" "$out/office_tum" "$out/run_office" "$out/split_tum_fr1_rpy"
+"$cli" run scenes/office/office_2robots.yaml --prior-error 0.06 -0.08 0 5 --out "$out/run_office"
 "$cli" replay "$data/tum/rgbd_dataset_freiburg1_rpy_200" --calibration "$data/calib/TUM1.yaml" --out "$out/replay_tum_fr1_rpy"
 "$cli" eval --gt "$data/tum/rgbd_dataset_freiburg1_rpy_200/groundtruth.txt" \
   --est "$out/replay_tum_fr1_rpy/trajectory.txt" --out "$out/replay_tum_fr1_rpy/eval"
+"$cli" replay "$data/tum/rgbd_dataset_freiburg1_rpy_200" --calibration "$data/calib/TUM1.yaml" --split 2 \
+  --out "$out/split_tum_fr1_rpy"
 "$cli" generate scenes/office/office_2robots.yaml --format tum --duration 5 --out "$out/office_tum"
 "$cli" eval --gt "$data/trajectories/fr2_desk_groundtruth.txt" --est "$data/trajectories/fr2_desk_ORB.txt" \
   --align se3 --out "$out/eval_fr2_desk_orb"
