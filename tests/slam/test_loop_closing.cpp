@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/trajectory_metrics.hpp"
 #include "fleetslam/slam/agent.hpp"
@@ -107,6 +108,14 @@ TEST(LoopClosing, SyntheticLoopIsClosedAndHalvesTheAte) {
   EXPECT_GE(closed.loops.front().inliers, 40);
   EXPECT_LT(ate_closed, 0.5 * ate_open);
   EXPECT_EQ(closed.tracked, static_cast<int>(loop_sequence().size()));
+}
+
+TEST(LoopClosing, MissingVocabularyIsAnInputError) {
+  AgentConfig config;
+  config.place_recognition.vocabulary = "/nonexistent/vocabulary.fsvoc";
+  EXPECT_THROW(Agent(config, test::synthetic_rgbd_rig(), core::null_logger()), InputError);
+  config.place_recognition.enabled = false;  // no vocabulary needed then
+  EXPECT_NO_THROW(Agent(config, test::synthetic_rgbd_rig(), core::null_logger()));
 }
 
 }  // namespace
