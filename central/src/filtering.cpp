@@ -23,7 +23,8 @@ core::PointCloud finite_points(const core::PointCloud& cloud, std::size_t& dropp
 struct Candidates {
   std::vector<float> x, y, z;
   std::vector<std::uint32_t> index;
-  std::vector<float> distance_sq;  // scratch, per query
+  std::vector<float> distance_sq;      // scratch, per query
+  std::vector<std::uint32_t> within;   // scratch, per query
 
   void clear() {
     x.clear();
@@ -62,10 +63,18 @@ void nearest_candidates(const Eigen::Vector3f& query, Candidates& candidates, st
     const float dx = x[j] - qx, dy = y[j] - qy, dz = z[j] - qz;
     d[j] = dx * dx + dy * dy + dz * dz;
   }
-  best.clear();
-  float worst = radius_sq;
+  // Those within the radius, compacted without branches (most candidates are outside), then the k
+  // nearest of those by insertion.
+  candidates.within.resize(n);
+  std::uint32_t* within = candidates.within.data();
+  std::size_t m = 0;
   for (std::size_t j = 0; j < n; ++j) {
-    if (d[j] > worst) continue;
+    within[m] = static_cast<std::uint32_t>(j);
+    m += d[j] <= radius_sq ? 1 : 0;
+  }
+  best.clear();
+  for (std::size_t w = 0; w < m; ++w) {
+    const std::uint32_t j = within[w];
     const Near near{d[j], candidates.index[j], Eigen::Vector3f(x[j], y[j], z[j])};
     if (best.size() == k) {
       if (!near.before(best.back())) continue;
@@ -74,7 +83,6 @@ void nearest_candidates(const Eigen::Vector3f& query, Candidates& candidates, st
     auto at = best.end();
     while (at != best.begin() && near.before(*(at - 1))) --at;
     best.insert(at, near);
-    if (best.size() == k) worst = best.back().distance_sq;
   }
 }
 

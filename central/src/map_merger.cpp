@@ -69,13 +69,15 @@ std::string describe(const Eigen::Isometry3d& T) {
 MapMerger::MapMerger(const Config& config, core::Logger logger)
     : config_(config),
       overlap_(config.coarse),
-      refine_overlap_(OverlapConfig{config.refine_radius_m}),
       registration_(config.registration),
       sampler_(config.sampling),
       filter_(config.filter),
       logger_(logger ? std::move(logger) : core::null_logger()) {
   if (config_.min_overlap_points < 1) throw InputError("min_overlap_points", "must be at least 1");
   if (config_.refinement_rounds < 1) throw InputError("refinement_rounds", "must be at least 1");
+  if (!(config_.refine_radius_m > 0.0) || !std::isfinite(config_.refine_radius_m)) {
+    throw InputError("refine_radius_m", "must be positive");
+  }
   if (!(config_.min_inlier_ratio >= 0.0 && config_.min_inlier_ratio <= 1.0)) {
     throw InputError("min_inlier_ratio", "must be in [0, 1]");
   }
@@ -86,22 +88,24 @@ MapMerger::MapMerger(const Config& config, core::Logger logger)
 // fails ends the refinement with the last good pose; when the first fails, the prior stands.
 void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                            core::PointCloud& cloud_world, MergeTimings& timings) const {
-  Overlap overlap = coarse;
+  OverlapRegions sets{coarse.indices_a, coarse.indices_b};
   for (int round = 1; round <= config_.refinement_rounds; ++round) {
     if (round > 1) {
       const Clock::time_point stage = Clock::now();
-      overlap = refine_overlap_.find(merged, cloud_world);
+      sets = overlap_regions(merged, cloud_world, config_.refine_radius_m);
       timings.coarse_ms += ms_since(stage);
-      if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) break;
+      const std::size_t smaller = std::min(sets.indices_a.size(), sets.indices_b.size());
+      if (smaller < static_cast<std::size_t>(config_.min_overlap_points)) break;
     }
     const Clock::time_point stage = Clock::now();
-    const RegistrationResult r = registration_.align(select_points(cloud_world, overlap.indices_b),
-                                                     select_points(merged, overlap.indices_a));
+    const RegistrationResult r = registration_.align(select_points(cloud_world, sets.indices_b),
+                                                     select_points(merged, sets.indices_a));
     timings.registration_ms += ms_since(stage);
     const bool usable = (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio;
-    logger_->info("merge: robot {}: round {}: GICP {} after {} iterations on {}/{} points ({} overlap pairs), fitness "
-                  "{:.3g} m^2, inliers {:.2f}, correction {}",
-                  report.robot_id, round, r.status, r.iterations, r.source_points, r.target_points, overlap.size(),
+    logger_->info("merge: robot {}: round {}: GICP {} after {} iterations on {}/{} points (overlap sets {}/{}), "
+                  "fitness {:.3g} m^2, inliers {:.2f}, correction {}",
+                  report.robot_id, round, r.status, r.iterations, r.source_points, r.target_points,
+                  sets.indices_b.size(), sets.indices_a.size(),
                   r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
     if (!usable) {
       if (round == 1) {
@@ -116,7 +120,7 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
     report.T_world_robot = r.T_target_source * report.T_world_robot;
     report.registration = r;
     report.refinement_rounds = round;
-    report.refined_overlap_points = overlap.size();
+    report.refined_overlap_points = sets.indices_b.size();
     report.fine_matched = true;
     report.status = "fine matched";
   }

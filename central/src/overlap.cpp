@@ -137,6 +137,18 @@ Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCl
   return overlap;
 }
 
+OverlapRegions overlap_regions(const core::PointCloud& a_world, const core::PointCloud& b_world, double radius_m) {
+  if (!(radius_m > 0.0) || !std::isfinite(radius_m)) {
+    throw InputError("overlap_regions.radius_m", "must be positive, got " + std::to_string(radius_m));
+  }
+  OverlapRegions regions;
+  if (a_world.empty() || b_world.empty()) return regions;
+  const float inverse_size = 1.0f / (static_cast<float>(radius_m) * 1.01f);
+  regions.indices_a = points_near(a_world, occupied_voxels(b_world, inverse_size), inverse_size);
+  regions.indices_b = points_near(b_world, occupied_voxels(a_world, inverse_size), inverse_size);
+  return regions;
+}
+
 core::PointCloud select_points(const core::PointCloud& cloud, const std::vector<std::uint32_t>& indices) {
   core::PointCloud out;
   const bool colored = cloud.has_colors();

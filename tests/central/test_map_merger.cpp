@@ -77,6 +77,27 @@ TEST(MapMerger, RefinesAWrongPriorAndMergesSamplesAndFilters) {
   EXPECT_LT(box.max.x(), 6.05f);
 }
 
+TEST(MapMerger, ASecondRoundOnTheRefinedOverlapIsMoreAccurate) {
+  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, Eigen::Isometry3d::Identity(), 60000),
+                                          robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error(), 60000)};
+  MapMergerConfig config;
+  config.sampling.enabled = false;
+  config.filter.enabled = false;
+  config.refinement_rounds = 1;
+  const MergeResult one = MapMerger(config).merge(robots);
+  config.refinement_rounds = 2;
+  const MergeResult two = MapMerger(config).merge(robots);
+  EXPECT_EQ(one.robots[1].refinement_rounds, 1);
+  EXPECT_EQ(two.robots[1].refinement_rounds, 2);
+  EXPECT_GT(two.robots[1].refined_overlap_points, two.robots[1].overlap_points);
+  const auto [one_m, one_rad] = synthetic::pose_error(one.robots[1].T_world_robot, kPoseB);
+  const auto [two_m, two_rad] = synthetic::pose_error(two.robots[1].T_world_robot, kPoseB);
+  EXPECT_LT(two_m, one_m);
+  EXPECT_LT(two_rad, one_rad);
+  EXPECT_LT(two_m, 0.005);
+  EXPECT_LT(two_rad, 0.2 * kDeg);
+}
+
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
   // C sees x in [4.5, 6], which only B (x in [2, 5.2]) overlaps; C comes before B.
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -115,6 +116,49 @@ TEST(OverlapFinder, DisjointOrEmptyCloudsHaveNoOverlap) {
   core::PointCloud nan_only;
   nan_only.push_back(Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   EXPECT_TRUE(finder.find(a, nan_only).empty());
+}
+
+TEST(OverlapRegions, HoldEveryPointWithinTheRadiusAndNoneFarFromTheOtherCloud) {
+  const core::PointCloud a = synthetic::room_cloud(3000, 0.0f, 4.0f, 0.003f, 3);
+  core::PointCloud b = synthetic::room_cloud(3000, 2.0f, 6.0f, 0.003f, 4);
+  b.points[0].x() = std::numeric_limits<float>::quiet_NaN();
+  const double radius = 0.1;
+  const OverlapRegions regions = overlap_regions(a, b, radius);
+  const auto distance_to = [](const Eigen::Vector3f& p, const core::PointCloud& cloud) {
+    float best = std::numeric_limits<float>::infinity();
+    for (const Eigen::Vector3f& q : cloud.points) {
+      if (q.allFinite()) best = std::min(best, (p - q).norm());
+    }
+    return best;
+  };
+  const auto check = [&](const core::PointCloud& cloud, const core::PointCloud& other,
+                         const std::vector<std::uint32_t>& indices) {
+    std::vector<char> in(cloud.size(), 0);
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+      in[indices[i]] = 1;
+      if (i > 0) {
+        EXPECT_LT(indices[i - 1], indices[i]);
+      }
+    }
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!cloud.points[i].allFinite()) {
+        EXPECT_FALSE(in[i]);
+        continue;
+      }
+      const float d = distance_to(cloud.points[i], other);
+      if (static_cast<double>(d) <= radius) {
+        EXPECT_TRUE(in[i]) << i << " at " << d;
+      }
+      if (in[i]) {
+        EXPECT_LE(d, 2.0 * std::sqrt(3.0) * radius * 1.01) << i;
+      }
+    }
+  };
+  check(a, b, regions.indices_a);
+  check(b, a, regions.indices_b);
+  EXPECT_GT(regions.indices_a.size(), 500u);
+  EXPECT_TRUE(overlap_regions(a, core::PointCloud{}, radius).indices_a.empty());
+  EXPECT_THROW(overlap_regions(a, b, 0.0), InputError);
 }
 
 TEST(OverlapFinder, RejectsANonPositiveRadius) {

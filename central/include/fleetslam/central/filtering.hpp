@@ -25,8 +25,8 @@ struct GaussianFilterConfig {
   void visit(V& v) {
     v("enabled", enabled);
     v("neighbours", neighbours, core::Limits<int>{1, 64});
-    v("sigma_m", sigma_m, core::Limits<double>{1e-5, 10.0});
-    v("radius_m", radius_m, core::Limits<double>{1e-5, 10.0});
+    v("sigma_m", sigma_m, core::Limits<double>{1e-4, 10.0});
+    v("radius_m", radius_m, core::Limits<double>{1e-3, 10.0});  // voxels of the radius: >= 1 mm (+-1 km)
   }
 };
 

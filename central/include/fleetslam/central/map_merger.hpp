@@ -42,11 +42,11 @@ struct RobotCloud {
 struct MapMergerConfig {
   OverlapConfig coarse;
   RegistrationConfig registration;  // fine matching (registration.enabled false: coarse only)
-  // 1: the paper's single pass. 2 (default): the overlap sets chosen again with the refined pose (mutual
-  // nearest neighbours within refine_radius_m) and GICP run again. The first pass's sets are chosen under
-  // the prior's error and are not the same surfaces on both sides; on bench_merge's rooms (10 cm + 5 deg
-  // prior error) one pass leaves 9 mm / 0.40 deg, two leave 2 mm / 0.07 deg, for about +40 % of the
-  // merge's time (figures in bench_merge.cpp).
+  // 1: the paper's single pass. 2 (default): then GICP again from the refined pose on the overlap regions
+  // (overlap_regions(), radius refine_radius_m: the parts of both clouds near the other, a voxel test).
+  // The first pass's mutual pairs are chosen under the prior's error and are not the same surfaces on both
+  // sides; on bench_merge's rooms (10 cm + 5 deg prior error) one pass leaves 8.8 mm / 0.37 deg, two leave
+  // 2.1 mm / 0.07 deg, for about +20-30 % of the merge's time (figures in bench_merge.cpp).
   int refinement_rounds = 2;
   double refine_radius_m = 0.1;
   int min_overlap_points = 100;     // fewer mutual pairs: no fine matching, the robot waits (see above)
@@ -59,7 +59,7 @@ struct MapMergerConfig {
     v("coarse", coarse);
     v("registration", registration);
     v("refinement_rounds", refinement_rounds, core::Limits<int>{1, 10});
-    v("refine_radius_m", refine_radius_m, core::Limits<double>{1e-4, 100.0});
+    v("refine_radius_m", refine_radius_m, core::Limits<double>{1e-3, 100.0});
     v("min_overlap_points", min_overlap_points, core::Limits<int>{1, 1 << 30});
     v("min_inlier_ratio", min_inlier_ratio, core::Limits<double>{0.0, 1.0});
     v("sampling", sampling);
@@ -82,7 +82,7 @@ struct RobotMergeReport {
   std::vector<std::pair<int, std::size_t>> overlap_with;
   RegistrationResult registration;     // the last GICP run (status empty when none ran)
   int refinement_rounds = 0;           // GICP rounds applied
-  std::size_t refined_overlap_points = 0;  // mutual pairs of the last applied round
+  std::size_t refined_overlap_points = 0;  // points of this robot in the last applied round's sets
   std::string status;                  // "reference", "fine matched", "no overlap: prior kept", ...
 };
 
@@ -121,7 +121,6 @@ class MapMerger {
 
   Config config_;
   OverlapFinder overlap_;
-  OverlapFinder refine_overlap_;
   GicpRegistration registration_;
   UniformSampler sampler_;
   GaussianFilter filter_;

@@ -26,7 +26,7 @@ struct OverlapConfig {
 
   template <class V>
   void visit(V& v) {
-    v("coarse_radius_m", coarse_radius_m, core::Limits<double>{1e-4, 100.0});
+    v("coarse_radius_m", coarse_radius_m, core::Limits<double>{1e-3, 100.0});
   }
 };
 
@@ -54,6 +54,17 @@ class OverlapFinder {
  private:
   Config config_;
 };
+
+// The overlap regions, a cheaper and looser selection than the mutual pairs: the points of A near B and
+// those of B near A, by a voxel test with voxels of radius_m (a point is near when a voxel next to its own
+// holds a point of the other cloud: every point within radius_m is included, none farther than
+// 2 sqrt(3) radius_m). No kd-tree; MapMerger's refinement rounds use it. Ascending indices; non-finite
+// points are left out.
+struct OverlapRegions {
+  std::vector<std::uint32_t> indices_a;
+  std::vector<std::uint32_t> indices_b;
+};
+OverlapRegions overlap_regions(const core::PointCloud& a_world, const core::PointCloud& b_world, double radius_m);
 
 // The points (and colours) of `cloud` at `indices`, in that order.
 core::PointCloud select_points(const core::PointCloud& cloud, const std::vector<std::uint32_t>& indices);

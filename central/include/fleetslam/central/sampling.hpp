@@ -21,7 +21,7 @@ struct UniformSamplingConfig {
   template <class V>
   void visit(V& v) {
     v("enabled", enabled);
-    v("voxel_size_m", voxel_size_m, core::Limits<double>{1e-4, 100.0});
+    v("voxel_size_m", voxel_size_m, core::Limits<double>{1e-3, 100.0});
   }
 };
 
