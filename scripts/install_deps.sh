@@ -16,6 +16,8 @@ packages=(
   libceres-dev
   # central (map merging: PCL's GICP as the comparison backend)
   libpcl-dev
+  # planners (OMPL sampling-based planners on the fused map)
+  libompl-dev
 )
 
 missing=()
