@@ -8,6 +8,7 @@
 
 #include "agent_impl.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/slam/map_io.hpp"
 #include "stopwatch.hpp"
 
 namespace fleetslam::slam {
@@ -70,6 +71,49 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
 Agent::Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger) {
   FLEETSLAM_CHECK(logger != nullptr, "Agent needs a logger (core::null_logger() discards)");
   impl_ = std::make_unique<Impl>(config, rig, std::move(logger));
+  if (!config.load_map.empty()) load_map(config.load_map);
+}
+
+Map Agent::map_copy() const {
+  Map copy;
+  {
+    const std::lock_guard<std::mutex> lock(impl_->map_mutex);
+    copy = impl_->map;
+  }
+  // cv::Mat copies share their pixels: the copy gets its own descriptors.
+  for (const auto& entry : copy.keyframes()) {
+    cv::Mat& descriptors = copy.keyframe(entry.first)->frame.descriptors;
+    descriptors = descriptors.clone();
+  }
+  return copy;
+}
+
+void Agent::save_map(const std::filesystem::path& file) {
+  finish();
+  const Impl& s = *impl_;
+  const std::lock_guard<std::mutex> lock(s.map_mutex);
+  slam::save_map(s.map, file, s.vocabulary ? vocabulary_fingerprint(*s.vocabulary) : 0);
+}
+
+void Agent::load_map(const std::filesystem::path& file) {
+  Impl& s = *impl_;
+  SavedMap saved = slam::load_map(file);
+  const std::lock_guard<std::mutex> lock(s.map_mutex);
+  FLEETSLAM_CHECK(!s.last_t_ns && s.map.keyframe_count() == 0, "Agent::load_map: only before the first frame");
+  s.map = std::move(saved.map);
+  const std::uint64_t fingerprint = s.vocabulary ? vocabulary_fingerprint(*s.vocabulary) : 0;
+  if (s.vocabulary && fingerprint != saved.vocabulary_fingerprint) {
+    s.logger->info("map {}: BoW vectors recomputed with this agent's vocabulary", file.string());
+    for (const auto& entry : s.map.keyframes()) s.compute_bow(entry.first);
+  }
+  s.database.clear();
+  int component = -1;
+  for (const auto& [id, kf] : s.map.keyframes()) {
+    if (s.vocabulary && !kf.bow.empty()) s.database.add(id, kf.bow);
+    component = kf.component;  // ascending ids: the newest keyframe's at the end
+  }
+  if (component >= 0) s.tracker.start_in_map(component);
+  s.logger->info("map {} loaded: {} keyframes, {} points", file.string(), s.map.keyframe_count(), s.map.point_count());
 }
 
 Agent::~Agent() = default;

@@ -43,6 +43,7 @@ void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
   inputs.vocabulary = vocabulary.get();
   inputs.database = vocabulary ? &database : nullptr;
   inputs.bow_levels_up = config.place_recognition.levels_up;
+  inputs.localization_only = config.localization_only;
   const Stopwatch watch;
   const TrackingResult tracked = tracker.track(frame, map, inputs);
   u.timings.tracking_ms = u.timings.extract_ms + watch.elapsed_ms();
@@ -64,7 +65,7 @@ void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
     return;
   }
   KeyframeId reference = tracked.reference_keyframe;
-  if (tracked.insert_keyframe) insert_keyframe(frame, tracked, u, reference);
+  if (tracked.insert_keyframe && !config.localization_only) insert_keyframe(frame, tracked, u, reference);
   const std::optional<Eigen::Isometry3d> T_w_ref = map.keyframe_pose(reference);
   if (!T_w_ref) return;  // cannot happen: the reference is alive while the lock is held
   records.push_back(FrameRecord{frame.t_ns, reference, T_w_ref->inverse() * *tracked.T_world_cam});

@@ -39,14 +39,24 @@ Tracker::Tracker(const TrackingConfig& config, const KeyframePolicyConfig& keyfr
 TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inputs) {
   FLEETSLAM_CHECK(frame.map_points.size() == frame.size() && frame.outlier.size() == frame.size(),
                   "Frame::finalize() must run before tracking");
-  if (state_ == TrackingState::kNotInitialized) return initialize(frame, inputs);
+  if (state_ == TrackingState::kNotInitialized) {
+    if (!inputs.localization_only) return initialize(frame, inputs);
+    TrackingResult result;
+    result.features = static_cast<int>(frame.size());
+    result.reason = "localisation only: no map to localise in";
+    return result;
+  }
+  if (lost_before_first_frame_) {
+    lost_since_ns_ = frame.t_ns;
+    lost_before_first_frame_ = false;
+  }
   // Lost: a few frames try the reference keyframe from the last good pose (a blurred frame or two should
   // not cost the map); after that a new component starts.
   const bool recovering = state_ == TrackingState::kLost;
   const bool can_relocalize = config_.relocalization.enabled && inputs.vocabulary != nullptr &&
                               inputs.database != nullptr && inputs.database->size() > 0;
   const bool relocalizing = recovering && ++lost_frames_ > config_.recovery_frames;
-  if (relocalizing && !can_relocalize) return initialize(frame, inputs);
+  if (relocalizing && !can_relocalize && !inputs.localization_only) return initialize(frame, inputs);
 
   TrackingResult result;
   result.features = static_cast<int>(frame.size());
@@ -54,7 +64,7 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   bool ok = false;
   if (relocalizing) {
     ok = relocalize(w, map, inputs, result);
-    if (!ok && static_cast<int>(frame.size()) >= config_.init_min_features) {
+    if (!ok && !inputs.localization_only && static_cast<int>(frame.size()) >= config_.init_min_features) {
       if (!relocalization_failing_since_ns_) relocalization_failing_since_ns_ = frame.t_ns;
       const double failing_s = core::ns_to_seconds(frame.t_ns - *relocalization_failing_since_ns_);
       if (failing_s >= config_.relocalization.new_map_after_s) {
@@ -99,6 +109,7 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   result.reference_keyframe = reference_keyframe_;
   ++frames_since_keyframe_;
   decide_keyframe(w, map, inputs, result);
+  if (inputs.localization_only) result.insert_keyframe = false;
   w.drop_outliers();
   remember(w, map, true);
   return result;
@@ -168,6 +179,19 @@ void Tracker::keyframe_inserted(KeyframeId id, const Map& map) {
   T_ref_last_ = Eigen::Isometry3d::Identity();
   last_T_world_cam_ = kf->T_world_cam;
   last_depth_points_.assign(last_frame_->size(), std::nullopt);
+}
+
+void Tracker::start_in_map(int component) {
+  state_ = TrackingState::kLost;
+  component_ = component;
+  lost_frames_ = config_.recovery_frames;  // the next frame counts one more: relocalisation at once
+  lost_before_first_frame_ = true;
+  relocalization_failing_since_ns_.reset();
+  last_frame_.reset();
+  velocity_.reset();
+  last_T_world_cam_.reset();
+  reference_keyframe_ = -1;
+  last_reference_ = -1;
 }
 
 void Tracker::remember(const Working& w, const Map& map, bool tracked) {

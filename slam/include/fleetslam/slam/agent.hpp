@@ -14,6 +14,7 @@
 // frame.
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -53,6 +54,11 @@ struct AgentConfig {
   PlaceRecognitionConfig place_recognition;
   LoopClosingConfig loop_closing;
   bool threaded = false;
+  // A map file (map_io.hpp) the agent starts from instead of an empty map; empty: none.
+  std::string load_map;
+  // Tracking and relocalisation against the (loaded) map only: no keyframe insertion, no local mapping,
+  // no loop closing, no new map component when tracking is lost (it keeps relocalising).
+  bool localization_only = false;
   int max_mapping_queue = 3;             // threaded: keyframes waiting beyond this are not inserted
   double dropped_frame_periods = 1.5;    // a gap longer than this many frame periods is reported
 
@@ -75,6 +81,8 @@ struct AgentConfig {
     v("loop_closing", loop_closing);
     v("relocalization", tracking.relocalization);
     v("threaded", threaded);
+    v("load_map", load_map);
+    v("localization_only", localization_only);
     v("max_mapping_queue", max_mapping_queue, core::Limits<int>{1, 1000});
     v("dropped_frame_periods", dropped_frame_periods, core::Limits<double>{1.0, 1000.0});
   }
@@ -148,8 +156,8 @@ struct MapStats {
 
 class Agent {
  public:
-  // Throws InputError for a rig the front end cannot use, a sensor choice the rig does not have, or a
-  // vocabulary that cannot be loaded (place_recognition.enabled).
+  // Throws InputError for a rig the front end cannot use, a sensor choice the rig does not have, a
+  // vocabulary that cannot be loaded (place_recognition.enabled), or a map file (load_map) that cannot.
   explicit Agent(const AgentConfig& config, const core::SensorRig& rig, core::Logger logger);
   ~Agent();
   Agent(Agent&&) noexcept;
@@ -174,6 +182,16 @@ class Agent {
   core::PointCloud dense_cloud() const;
   DenseStats dense_stats() const;
   const AgentConfig& config() const;
+
+  // A deep copy of the map as it is now (threaded mode: call finish() first for a settled one).
+  Map map_copy() const;
+  // Saves the map (map_io.hpp) after finish(). Throws InputError naming the file when it cannot be written.
+  void save_map(const std::filesystem::path& file);
+  // Starts from a saved map: before the first frame only (InvariantError otherwise). Keyframes' BoW vectors
+  // are recomputed when the file's vocabulary is not this agent's; the keyframe database indexes them; the
+  // tracker starts lost in the map component of the newest keyframe, so the first frame relocalises.
+  // Throws InputError naming the file for a missing, truncated, corrupted, foreign or wrong-version file.
+  void load_map(const std::filesystem::path& file);
 
  private:
   struct Impl;

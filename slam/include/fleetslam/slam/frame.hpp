@@ -95,6 +95,13 @@ class FeatureGrid {
   void scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                  double radius_px, int min_level, int max_level, Visit&& visit) const;
   bool empty() const { return cell_start_.empty(); }
+  // Same cells, bounds and indices (map files are compared with it).
+  bool operator==(const FeatureGrid& o) const {
+    return cols_ == o.cols_ && rows_ == o.rows_ && std::memcmp(&min_u_, &o.min_u_, sizeof min_u_) == 0 &&
+           std::memcmp(&min_v_, &o.min_v_, sizeof min_v_) == 0 && std::memcmp(&cell_w_, &o.cell_w_, sizeof cell_w_) == 0 &&
+           std::memcmp(&cell_h_, &o.cell_h_, sizeof cell_h_) == 0 && cell_start_ == o.cell_start_ &&
+           indices_ == o.indices_;
+  }
 
  private:
   // The query square's cells [x0, x1] x [y0, y1], as the constructor assigns features to cells; false

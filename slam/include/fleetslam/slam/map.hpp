@@ -134,6 +134,8 @@ class Map {
   bool is_culled(KeyframeId id) const { return culled_.count(id) > 0; }
 
  private:
+  friend struct MapAccess;  // map_io.cpp: saves and restores every member, compares maps
+
   void unlink_feature(KeyframeId kf, int feature);
   void set_neighbours(Keyframe& keyframe);
   void adopt_children(Keyframe& culled);

@@ -122,6 +122,9 @@ struct TrackingInputs {
   const Vocabulary* vocabulary = nullptr;
   const KeyframeDatabase* database = nullptr;
   int bow_levels_up = 2;
+  // Localisation only: tracking and relocalisation against the map as it is; no map is ever started
+  // (a tracker without one stays not initialised, a lost one keeps relocalising) and no keyframe asked for.
+  bool localization_only = false;
 };
 
 struct TrackingTimings {
@@ -157,6 +160,9 @@ class Tracker {
   // The frame just tracked became keyframe `id` (with its points as local mapping created them): it is
   // the new reference, and the next frame matches against its points.
   void keyframe_inserted(KeyframeId id, const Map& map);
+  // Before the first frame, with a map loaded into the agent: the tracker starts lost in `component`,
+  // so that the first frame goes straight to relocalisation.
+  void start_in_map(int component);
 
   TrackingState state() const { return state_; }
   int component() const { return component_; }
@@ -189,6 +195,7 @@ class Tracker {
   TrackingState state_ = TrackingState::kNotInitialized;
   int component_ = -1;
   int lost_frames_ = 0;  // consecutive frames lost (the current one included)
+  bool lost_before_first_frame_ = false;  // start_in_map: lost_since_ns_ is the first frame's stamp
   core::TimeNs lost_since_ns_ = 0;  // first lost frame
   std::optional<core::TimeNs> relocalization_failing_since_ns_;  // first failed try on a frame with features
   // The last tracked frame, its pose held relative to its reference keyframe so that it follows
