@@ -1,6 +1,11 @@
 #pragma once
 // Synthetic world-frame clouds for the planners' tests: floors, walls and boxes sampled on regular grids.
 
+#include <cmath>
+#include <functional>
+#include <utility>
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "fleetslam/core/point_cloud.hpp"
@@ -46,6 +51,27 @@ inline OccupancyGridConfig grid_config(double robot_radius_m = 0.2) {
   config.resolution_m = 0.05;
   config.robot_radius_m = robot_radius_m;
   return config;
+}
+
+// A grid of [0, w] x [0, h] metres at resolution_m, free except where occupied(cell centre) holds, with a
+// one-cell occupied border.
+inline OccupancyGrid make_grid(double w_m, double h_m, const std::function<bool(const Eigen::Vector2d&)>& occupied,
+                               double robot_radius_m = 0.2, double resolution_m = 0.05) {
+  OccupancyGridConfig config = grid_config(robot_radius_m);
+  config.resolution_m = resolution_m;
+  OccupancyGrid grid(config);
+  const int w = static_cast<int>(std::lround(w_m / resolution_m));
+  const int h = static_cast<int>(std::lround(h_m / resolution_m));
+  std::vector<CellState> cells(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), CellState::kFree);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const Eigen::Vector2d c = resolution_m * Eigen::Vector2d(x + 0.5, y + 0.5);
+      const bool border = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+      if (border || occupied(c)) cells[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = CellState::kOccupied;
+    }
+  }
+  grid.set_cells(Eigen::Vector2d::Zero(), w, h, std::move(cells));
+  return grid;
 }
 
 }  // namespace fleetslam::planners::test
