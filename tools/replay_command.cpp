@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -60,6 +61,9 @@ struct ReplayOptions {
   std::int64_t max_frames = -1;
   int split = 1;
   std::string central_config;
+  std::string vocabulary;  // place_recognition.vocabulary; empty: the config's
+  std::string save_map;    // the agent's map is saved here after the run
+  std::string load_map;    // the agent localises (localization only) in this saved map
 };
 
 core::Logger make_cli_logger(const GlobalOptions& global) {
@@ -87,6 +91,14 @@ slam::AgentConfig agent_config(const ReplayOptions& o, const std::optional<core:
   }
   if (o.sensor == "rgbd") config.sensor = slam::AgentSensor::kRgbd;
   if (o.sensor == "stereo") config.sensor = slam::AgentSensor::kStereo;
+  if (!o.vocabulary.empty()) {
+    config.place_recognition.vocabulary = o.vocabulary;
+    slam::load_place_vocabulary(config.place_recognition);  // a bad file fails before the dataset opens
+  }
+  if (!o.load_map.empty()) {
+    config.load_map = o.load_map;
+    config.localization_only = true;
+  }
   return config;
 }
 
@@ -382,12 +394,29 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
   RunLog::write_text(out / "config.yaml", core::config_to_yaml(config));
   if (o.split > 1) {
+    if (!o.save_map.empty() || !o.load_map.empty()) throw InputError("--split", "takes neither --save-map nor --load-map");
     run_split_replay(o, global, config, *source, logger, out);
     return;
   }
 
-  slam::Agent agent(config, source->rig(), logger);
+  slam::AgentConfig without_map = config;  // the map is loaded below, timed (reported only)
+  without_map.load_map.clear();
+  slam::Agent agent(without_map, source->rig(), logger);
+  double load_s = 0.0;
+  if (!config.load_map.empty()) {
+    const auto load_start = std::chrono::steady_clock::now();
+    agent.load_map(config.load_map);
+    load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+  }
   RunResult run = run_agent(agent, *source, logger);
+  std::optional<double> save_s;
+  if (!o.save_map.empty()) {
+    const auto save_start = std::chrono::steady_clock::now();
+    agent.save_map(o.save_map);
+    save_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - save_start).count();
+    logger->info("map saved to {} ({} keyframes, {} points) in {:.3f} s", o.save_map, run.map.keyframes,
+                 run.map.points, *save_s);
+  }
   core::write_trajectory(out / "trajectory.txt", run.estimate, core::TrajectoryFormat::kTum);
   core::write_trajectory(out / "keyframes.txt", run.keyframes, core::TrajectoryFormat::kTum);
   run.log.write(out);
@@ -400,7 +429,16 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"dense_points", run.dense_stats.points},
                             {"dense_back_projected", run.dense_stats.back_projected},
                             {"tracking_ms", stats_json(run.log.tracking_ms())},
-                            {"total_ms", stats_json(run.log.total_ms())}};
+                            {"total_ms", stats_json(run.log.total_ms())},
+                            {"localization_only", config.localization_only}};
+  if (!o.load_map.empty()) {
+    metrics["loaded_map"] = {{"file", o.load_map}, {"load_s", load_s}};
+  }
+  if (save_s) {
+    std::error_code size_ec;
+    const auto bytes = fs::file_size(o.save_map, size_ec);
+    metrics["saved_map"] = {{"file", o.save_map}, {"bytes", size_ec ? 0 : bytes}, {"save_s", *save_s}};
+  }
   std::optional<core::AteResult> ate;
   if (!run.per_frame_groundtruth.empty()) {
     core::write_trajectory(out / "groundtruth.txt", run.per_frame_groundtruth, core::TrajectoryFormat::kTum);
@@ -415,7 +453,10 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     }
   }
   RunLog::write_text(out / "metrics.json", metrics.dump(2) + "\n");
-  if (!global.quiet) print_summary(run, ate, out);
+  if (global.quiet) return;
+  print_summary(run, ate, out);
+  if (!o.load_map.empty()) std::printf("loaded map:   %s in %.3f s (localization only)\n", o.load_map.c_str(), load_s);
+  if (save_s) std::printf("saved map:    %s in %.3f s\n", o.save_map.c_str(), *save_s);
 }
 
 }  // namespace
@@ -442,6 +483,12 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
                   "prior) and merge their maps in the central unit")
       ->check(CLI::Range(1, 26));
   cmd->add_option("--central-config", options->central_config, "Central unit config YAML (with --split)");
+  cmd->add_option("--vocabulary", options->vocabulary,
+                  "Vocabulary file for place recognition (binary or DBoW2 text; default: the config's, else the "
+                  "shipped one)");
+  cmd->add_option("--save-map", options->save_map, "Save the agent's map to this file after the run");
+  cmd->add_option("--load-map", options->load_map,
+                  "Start from this saved map and localise in it only (no keyframes, no mapping, no loop closing)");
   cmd->callback([options, &global] { run_replay(*options, global); });
 }
 

@@ -59,6 +59,7 @@ struct RunOptions {
   std::string central_config;
   std::vector<double> prior_error;  // dx dy dz (m) yaw (deg), applied to robots after the first
   double truth_spacing_m = 0.01;
+  std::string vocabulary;  // place_recognition.vocabulary of every agent; empty: the config's
 };
 
 core::Logger make_cli_logger(const GlobalOptions& global) {
@@ -133,7 +134,11 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   sim::ScenarioConfig scenario = sim::load_scenario(o.scenario);
   if (o.seed) scenario.seed = *o.seed;
   if (o.duration_s) scenario.duration_s = *o.duration_s;
-  const slam::AgentConfig agent_config = read_config<slam::AgentConfig>(o.agent_config);
+  slam::AgentConfig agent_config = read_config<slam::AgentConfig>(o.agent_config);
+  if (!o.vocabulary.empty()) {
+    agent_config.place_recognition.vocabulary = o.vocabulary;
+    slam::load_place_vocabulary(agent_config.place_recognition);  // a bad file fails before the world is built
+  }
   const central::ServerConfig central_config = read_config<central::ServerConfig>(o.central_config);
   if (!o.prior_error.empty() && o.prior_error.size() != 4) {
     throw InputError("--prior-error", "needs 4 values: dx dy dz (m) yaw (deg)");
@@ -252,6 +257,9 @@ void add_run_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--duration", options->duration_s, "Seconds to simulate (default: the scenario's)")->check(CLI::PositiveNumber);
   cmd->add_option("--agent-config", options->agent_config, "Agent config YAML for every robot");
   cmd->add_option("--central-config", options->central_config, "Central unit config YAML");
+  cmd->add_option("--vocabulary", options->vocabulary,
+                  "Vocabulary file for every agent's place recognition (binary or DBoW2 text; default: the "
+                  "config's, else the shipped one)");
   cmd->add_option("--prior-error", options->prior_error,
                   "Error added to the initial-pose prior of every robot but the first: dx dy dz (m) yaw (deg)")
       ->expected(4);

@@ -138,6 +138,70 @@ TEST(ReplayCli, SplitNeedsEnoughFrames) {
   EXPECT_NE(r.output.find("--split 2 needs at least 4 frames"), std::string::npos) << r.output;
 }
 
+// A map saved after one run localises a second run over the same frames: every frame tracked, no keyframe
+// added, metrics.json says so.
+TEST(ReplayCli, SavedMapLocalisesASecondRun) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  const std::string common = "-q replay '" + kTum.string() + "' --calibration '" +
+                             (kData / "calib" / "TUM1.yaml").string() + "' --max-frames 40";
+  const fs::path map = dir / "map.fsmap";
+  RunResult r = run(common + " --save-map '" + map.string() + "' --out '" + (dir / "first").string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(fs::exists(map));
+  std::ifstream first_file(dir / "first" / "metrics.json");
+  const nlohmann::json first = nlohmann::json::parse(first_file);
+  EXPECT_EQ(first["localization_only"], false);
+  EXPECT_EQ(first["saved_map"]["bytes"].get<std::uintmax_t>(), fs::file_size(map));
+
+  r = run(common + " --load-map '" + map.string() + "' --out '" + (dir / "second").string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream second_file(dir / "second" / "metrics.json");
+  const nlohmann::json second = nlohmann::json::parse(second_file);
+  EXPECT_EQ(second["localization_only"], true);
+  EXPECT_EQ(second["loaded_map"]["file"], map.string());
+  EXPECT_EQ(second["status_counts"]["tracked"], 40) << second.dump();
+  EXPECT_EQ(second["keyframes"], first["keyframes"]);
+  EXPECT_EQ(second["map_points"], first["map_points"]);
+  EXPECT_LT(second["ate"]["ate_m"]["rmse"].get<double>(), 0.05);
+  EXPECT_EQ(core::read_trajectory(dir / "second" / "trajectory.txt").size(), 40u);
+  EXPECT_NE(read_text(dir / "second" / "config.yaml").find("localization_only: true"), std::string::npos);
+}
+
+TEST(ReplayCli, BadMapFileEndsWithOneLine) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "foreign.fsmap", std::ios::binary) << "\x89PNG\r\n\x1a\n not a map at all, just some bytes";
+  RunResult r = run("-q replay '" + kTum.string() + "' --load-map '" + (dir / "foreign.fsmap").string() + "' --out '" +
+                    (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("fleetslam: error: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("foreign.fsmap"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("not a fleetslam map file"), std::string::npos) << r.output;
+  r = run("-q replay '" + kTum.string() + "' --load-map '" + (dir / "missing.fsmap").string() + "' --out '" +
+          (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("missing.fsmap"), std::string::npos) << r.output;
+  r = run("-q replay '" + kTum.string() + "' --split 2 --load-map '" + (dir / "missing.fsmap").string() + "' --out '" +
+          (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+}
+
+TEST(ReplayCli, BadVocabularyFileEndsWithOneLine) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "bad.fsvoc", std::ios::binary) << "FSVOCAB";
+  RunResult r = run("-q replay '" + (dir / "absent").string() + "' --vocabulary '" + (dir / "bad.fsvoc").string() +
+                    "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("bad.fsvoc"), std::string::npos) << r.output;
+  r = run("-q replay '" + (dir / "absent").string() + "' --vocabulary '" + (dir / "missing.fsvoc").string() +
+          "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("missing.fsvoc"), std::string::npos) << r.output;
+}
+
 TEST(ReplayCli, BadInputEndsWithOneClearLine) {
   const fs::path dir = test_dir();
   RunResult r = run("replay '" + (dir / "absent").string() + "' --out '" + (dir / "run").string() + "'");

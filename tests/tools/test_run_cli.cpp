@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -91,6 +92,12 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
           (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no_such_key"), std::string::npos) << r.output;
+  std::ofstream(dir / "bad.fsvoc", std::ios::binary) << "not a vocabulary";
+  r = run("-q run '" + kOffice.string() + "' --vocabulary '" + (dir / "bad.fsvoc").string() + "' --out '" +
+          (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("bad.fsvoc"), std::string::npos) << r.output;
 }
 
 }  // namespace
