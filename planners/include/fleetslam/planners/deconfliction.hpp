@@ -1,0 +1,87 @@
+#pragma once
+// Multi-robot deconfliction by priorities. Robots are planned in the order given (first = highest
+// priority). Each path is timed at a nominal speed along its xy length (turning in place takes no time;
+// before its start time a robot stands at its start, after its end at its last pose; a robot without a
+// path stands at its start throughout). A later robot's path conflicts with an earlier one when, at some
+// time t (sampled every time_step_s), the two are closer than separation_m at times t and t' with
+// |t - t'| <= time_margin_s. On a conflict the later robot is replanned with the earlier robot's path
+// around the conflict (poses within +-block_window_s of it) blocked by disks of radius separation_m (disks
+// that would cover the later robot's own start or goal are left out), up to max_replans times. Conflicts
+// left then are reported, never hidden.
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+#include "fleetslam/planners/occupancy_grid.hpp"
+#include "fleetslam/planners/planner.hpp"
+
+namespace fleetslam::planners {
+
+struct DeconflictionConfig {
+  double speed_m_per_s = 0.5;
+  double time_step_s = 0.1;
+  double time_margin_s = 0.5;
+  double separation_m = 0.5;   // at least twice the robot radius
+  double block_window_s = 2.0;
+  int max_replans = 5;
+
+  template <class V>
+  void visit(V& v) {
+    v("speed_m_per_s", speed_m_per_s, core::Limits<double>{1e-3, 100.0});
+    v("time_step_s", time_step_s, core::Limits<double>{1e-3, 10.0});
+    v("time_margin_s", time_margin_s, core::Limits<double>{0.0, 100.0});
+    v("separation_m", separation_m, core::Limits<double>{0.0, 100.0});
+    v("block_window_s", block_window_s, core::Limits<double>{0.0, 1000.0});
+    v("max_replans", max_replans, core::Limits<int>{0, 1000});
+  }
+};
+
+struct RobotQuery {
+  int robot_id = 0;
+  Pose2d start_world;
+  Eigen::Vector2d goal_world = Eigen::Vector2d::Zero();
+};
+
+struct Conflict {
+  int robot_a = 0;  // higher priority
+  int robot_b = 0;  // lower priority
+  double time_s = 0.0;
+  Eigen::Vector2d position_a_world = Eigen::Vector2d::Zero();
+  Eigen::Vector2d position_b_world = Eigen::Vector2d::Zero();
+  double distance_m = 0.0;
+};
+
+struct DeconflictionResult {
+  std::vector<PlanResult> plans;  // one per query, in the queries' order
+  std::vector<int> replans;       // replans per robot
+  std::vector<Conflict> conflicts;  // left unresolved
+  bool conflict_free() const { return conflicts.empty(); }
+};
+
+class Deconflicter {
+ public:
+  using Config = DeconflictionConfig;
+  Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger = core::null_logger());
+
+  DeconflictionResult plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries_by_priority) const;
+
+  const Config& config() const { return config_; }
+
+ private:
+  Config config_;
+  PathPlanner planner_;
+  core::Logger logger_;
+};
+
+// Position on a path timed at speed_m_per_s, t_s after its start (clamped to its ends); `fallback` when
+// the path is empty.
+Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_m_per_s, double t_s,
+                            const Eigen::Vector2d& fallback);
+
+// Duration (s) of a path at speed_m_per_s.
+double path_duration_s(const std::vector<Pose2d>& path_world, double speed_m_per_s);
+
+}  // namespace fleetslam::planners

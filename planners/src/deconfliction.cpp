@@ -1,0 +1,104 @@
+#include "fleetslam/planners/deconfliction.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+namespace fleetslam::planners {
+namespace {
+
+struct TimedPath {
+  int robot_id = 0;
+  std::vector<Pose2d> path;
+  Eigen::Vector2d rest_world = Eigen::Vector2d::Zero();  // where it stands without a path
+};
+
+std::optional<Conflict> first_conflict(const TimedPath& a, const TimedPath& b, const DeconflictionConfig& c) {
+  const double end = std::max(path_duration_s(a.path, c.speed_m_per_s), path_duration_s(b.path, c.speed_m_per_s)) +
+                     c.time_margin_s + c.time_step_s;
+  const int margin_steps = static_cast<int>(std::ceil(c.time_margin_s / c.time_step_s));
+  for (int k = 0; k * c.time_step_s <= end; ++k) {
+    const double t = k * c.time_step_s;
+    const Eigen::Vector2d pb = position_at(b.path, c.speed_m_per_s, t, b.rest_world);
+    for (int m = -margin_steps; m <= margin_steps; ++m) {
+      const double ta = std::max(0.0, t + m * c.time_step_s);
+      const Eigen::Vector2d pa = position_at(a.path, c.speed_m_per_s, ta, a.rest_world);
+      const double d = (pa - pb).norm();
+      if (d < c.separation_m) return Conflict{a.robot_id, b.robot_id, t, pa, pb, d};
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+double path_duration_s(const std::vector<Pose2d>& path_world, double speed_m_per_s) {
+  double length = 0.0;
+  for (std::size_t i = 1; i < path_world.size(); ++i) length += (path_world[i].xy() - path_world[i - 1].xy()).norm();
+  return length / speed_m_per_s;
+}
+
+Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_m_per_s, double t_s,
+                            const Eigen::Vector2d& fallback) {
+  if (path_world.empty()) return fallback;
+  double remaining = std::max(0.0, t_s) * speed_m_per_s;
+  for (std::size_t i = 1; i < path_world.size(); ++i) {
+    const Eigen::Vector2d a = path_world[i - 1].xy();
+    const Eigen::Vector2d b = path_world[i].xy();
+    const double length = (b - a).norm();
+    if (remaining <= length) return length > 0.0 ? Eigen::Vector2d(a + (b - a) * (remaining / length)) : a;
+    remaining -= length;
+  }
+  return path_world.back().xy();
+}
+
+Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger)
+    : config_(config), planner_(planner_config, logger), logger_(logger ? std::move(logger) : core::null_logger()) {}
+
+DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries) const {
+  DeconflictionResult result;
+  std::vector<TimedPath> timed;
+  for (const RobotQuery& q : queries) {
+    std::vector<Disk> blocked;
+    PlanResult plan = planner_.plan(grid, q.start_world, q.goal_world, blocked);
+    int replans = 0;
+    std::optional<Conflict> conflict;
+    for (;;) {
+      TimedPath mine{q.robot_id, plan.path_world, q.start_world.xy()};
+      conflict.reset();
+      for (const TimedPath& other : timed) {
+        conflict = first_conflict(other, mine, config_);
+        if (conflict) break;
+      }
+      if (!conflict || replans >= config_.max_replans) break;
+      // Block the higher-priority robot's poses around the conflict time.
+      const TimedPath& other = *std::find_if(timed.begin(), timed.end(),
+                                             [&](const TimedPath& t) { return t.robot_id == conflict->robot_a; });
+      const double step_s = 0.5 * grid.resolution_m() / config_.speed_m_per_s;
+      for (double t = conflict->time_s - config_.block_window_s; t <= conflict->time_s + config_.block_window_s;
+           t += step_s) {
+        const Eigen::Vector2d p = position_at(other.path, config_.speed_m_per_s, t, other.rest_world);
+        if ((p - q.start_world.xy()).norm() < config_.separation_m || (p - q.goal_world).norm() < config_.separation_m) {
+          continue;
+        }
+        blocked.push_back(Disk{p, config_.separation_m});
+      }
+      ++replans;
+      PlanResult replanned = planner_.plan(grid, q.start_world, q.goal_world, blocked);
+      logger_->debug("deconfliction: robot {} conflicts with robot {} at t = {:.1f} s; replan {}: {}", q.robot_id,
+                     conflict->robot_a, conflict->time_s, replans, to_string(replanned.status));
+      if (!replanned.solved()) break;  // keep the last path found; the conflict is reported
+      plan = std::move(replanned);
+    }
+    if (conflict) result.conflicts.push_back(*conflict);
+    timed.push_back(TimedPath{q.robot_id, plan.path_world, q.start_world.xy()});
+    result.plans.push_back(std::move(plan));
+    result.replans.push_back(replans);
+  }
+  return result;
+}
+
+}  // namespace fleetslam::planners

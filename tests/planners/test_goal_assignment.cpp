@@ -1,0 +1,71 @@
+// GoalAssigner: distinct goals, nearest first, separation penalty, unreachable goals, determinism.
+
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/planners/goal_assignment.hpp"
+#include "synthetic_maps.hpp"
+
+namespace fleetslam::planners {
+namespace {
+
+TEST(GoalAssigner, DistinctGoalsNearestFirst) {
+  GoalAssignmentConfig c;
+  c.cost = AssignmentCost::kStraightLine;
+  c.separation_penalty_m = 0.0;
+  const GoalAssigner assigner(c);
+  const std::vector<Eigen::Vector2d> robots{{0.0, 0.0}, {0.5, 0.0}, {10.0, 0.0}};
+  const std::vector<Eigen::Vector2d> goals{{1.0, 0.0}, {9.0, 0.0}, {1.2, 0.5}, {20.0, 0.0}};
+  const GoalAssignment a = assigner.assign(robots, goals);
+  ASSERT_EQ(a.goal_of_robot.size(), 3u);
+  EXPECT_EQ(a.goal_of_robot[1], 0);  // 0.5 m: the cheapest pair
+  EXPECT_EQ(a.goal_of_robot[2], 1);
+  EXPECT_EQ(a.goal_of_robot[0], 2);
+  EXPECT_EQ(std::set<int>(a.goal_of_robot.begin(), a.goal_of_robot.end()).size(), 3u);
+  // Fewer goals than robots: the rest get none. Same input, same answer.
+  const GoalAssignment b = assigner.assign(robots, {{1.0, 0.0}});
+  EXPECT_EQ(b.goal_of_robot, (std::vector<int>{-1, 0, -1}));
+  EXPECT_EQ(assigner.assign(robots, goals).goal_of_robot, a.goal_of_robot);
+}
+
+TEST(GoalAssigner, PenaltySpreadsRobotsOverFrontiers) {
+  // Two robots side by side; two goals close together ahead and one farther away on the left.
+  const std::vector<Eigen::Vector2d> robots{{0.0, 0.0}, {0.0, 0.4}};
+  const std::vector<Eigen::Vector2d> goals{{3.0, 0.0}, {3.0, 0.5}, {0.0, 4.5}};
+  GoalAssignmentConfig c;
+  c.cost = AssignmentCost::kStraightLine;
+  c.separation_penalty_m = 0.0;
+  const GoalAssignment near = GoalAssigner(c).assign(robots, goals);
+  EXPECT_EQ(near.goal_of_robot, (std::vector<int>{0, 1}));
+  c.separation_penalty_m = 5.0;
+  c.separation_m = 2.0;
+  const GoalAssignment spread = GoalAssigner(c).assign(robots, goals);
+  EXPECT_EQ(spread.goal_of_robot, (std::vector<int>{0, 2}));
+}
+
+TEST(GoalAssigner, GridPathCostAndFrontierGoals) {
+  // A wall between the robot's side and goal 0 (reachable only around it), goal 1 boxed in.
+  const OccupancyGrid grid = test::make_grid(6.0, 4.0, [](const Eigen::Vector2d& c) {
+    const bool wall = c.x() > 2.9 && c.x() < 3.1 && c.y() < 3.0;
+    const bool box = (c - Eigen::Vector2d(5.0, 3.0)).cwiseAbs().maxCoeff() < 0.6 &&
+                     (c - Eigen::Vector2d(5.0, 3.0)).cwiseAbs().maxCoeff() > 0.5;
+    return wall || box;
+  });
+  GoalAssignmentConfig c;
+  const GoalAssignment a = GoalAssigner(c).assign({{1.0, 1.0}}, {{5.0, 1.0}, {5.0, 3.0}}, &grid);
+  EXPECT_EQ(a.goal_of_robot, (std::vector<int>{0}));
+  EXPECT_GT(a.cost_m[0], 5.5);  // around the wall, not the 4 m straight line
+  const GoalAssignment none = GoalAssigner(c).assign({{1.0, 1.0}}, {{5.0, 3.0}}, &grid);
+  EXPECT_EQ(none.goal_of_robot, (std::vector<int>{-1}));
+  EXPECT_THROW(GoalAssigner(c).assign({{1.0, 1.0}}, {{5.0, 1.0}}, nullptr), InputError);
+
+  Frontier with_goal;
+  with_goal.has_goal = true;
+  with_goal.goal_world = {1.0, 2.0};
+  EXPECT_EQ(frontier_goals({Frontier{}, with_goal}).size(), 1u);
+}
+
+}  // namespace
+}  // namespace fleetslam::planners
