@@ -516,16 +516,21 @@ PcdHeader parse_pcd_header(const std::string& file, const std::string& data) {
     throw bad("FIELDS, SIZE, TYPE and COUNT list different numbers of fields");
   }
   if (!width || !height) throw bad("missing WIDTH or HEIGHT");
-  if (!points) points = *width * *height;
-  if (*points != *width * *height) throw bad("POINTS is not WIDTH * HEIGHT");
+  std::size_t area = 0;
+  if (__builtin_mul_overflow(*width, *height, &area)) throw bad("WIDTH * HEIGHT is too large");
+  if (!points) points = area;
+  if (*points != area) throw bad("POINTS is not WIDTH * HEIGHT");
   PcdHeader header;
   for (std::size_t i = 0; i < names.size(); ++i) {
     const std::optional<Scalar> type = pcd_scalar(types[i], sizes[i]);
     if (!type) throw bad("unsupported TYPE " + types[i] + " with SIZE " + std::to_string(sizes[i]));
     if (counts[i] == 0) throw bad("COUNT 0 for field '" + names[i] + "'");
+    if (counts[i] > (1u << 20)) throw bad("COUNT " + std::to_string(counts[i]) + " of field '" + names[i] + "' is too large");
     header.fields.push_back(PcdField{names[i], *type, counts[i], header.point_size});
     header.point_size += sizes[i] * counts[i];
   }
+  std::size_t body_bytes = 0;  // a body this large cannot be read anyway; this keeps later products exact
+  if (__builtin_mul_overflow(*points, header.point_size, &body_bytes)) throw bad("POINTS is too large");
   header.points = *points;
   header.data = *body;
   header.body_offset = lines.body_offset();
@@ -615,7 +620,7 @@ std::optional<std::uint32_t> parse_packed_rgb(std::string_view token, Scalar typ
 PointCloud read_pcd_ascii(const std::string& file, const PcdHeader& header, const PointSlots& slots,
                           std::string_view body_text) {
   PointCloud cloud;
-  cloud.reserve(header.points, slots.has_rgb());
+  cloud.reserve(std::min(header.points, body_text.size() / 2), slots.has_rgb());  // >= 2 bytes a point
   BodyReader body(body_text, true, false);
   std::vector<double> values(header.fields.size());
   std::uint32_t packed = 0;
@@ -737,7 +742,7 @@ PointCloud read_ply(const std::string& path) {
   for (const PlyElement& element : header.elements) {
     std::vector<double> values(element.properties.size(), 0.0);
     if (element.name != "vertex") {  // skipped row by row (lists make rows variable in size)
-      for (std::size_t row = 0; row < element.count; ++row) {
+      for (std::size_t row = 0; row < element.count && !element.properties.empty(); ++row) {
         if (!read_ply_row(body, element, values)) throw InputError(path, element_message(element, row, body));
       }
       continue;
@@ -745,7 +750,7 @@ PointCloud read_ply(const std::string& path) {
     const PointSlots slots = ply_slots(element);
     if (!slots.has_xyz()) throw InputError(path, "bad header: the vertex element has no x, y and z properties");
     PointCloud cloud;
-    cloud.reserve(element.count, slots.has_rgb());
+    cloud.reserve(std::min(element.count, data.size() - header.body_offset), slots.has_rgb());  // >= 1 byte a row
     for (std::size_t row = 0; row < element.count; ++row) {
       if (!read_ply_row(body, element, values)) throw InputError(path, element_message(element, row, body));
       const Eigen::Vector3f point(static_cast<float>(values[slots.xyz[0]]), static_cast<float>(values[slots.xyz[1]]),

@@ -261,6 +261,14 @@ TEST(PointCloudIo, BadHeadersAreInputErrors) {
       {"no_z.pcd", "FIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2\n", "no x, y and z"},
       {"width.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH -1\nHEIGHT 1\nDATA ascii\n", "WIDTH expects"},
       {"binary.pcd", "\x89PNG\r\n\x1a\n", "unknown keyword"},
+      // Absurd counts fail as truncated bodies or header errors, without allocating for them.
+      {"huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 999999999999999\nproperty float x\n"
+                   "property float y\nproperty float z\nend_header\n\x01\x02",
+       "truncated body"},
+      {"huge.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 99999999999\nHEIGHT 99999999999\nDATA ascii\n1 2 3\n",
+       "WIDTH * HEIGHT is too large"},
+      {"huge_ascii.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 999999999999\nHEIGHT 1\nDATA ascii\n1 2 3\n",
+       "truncated body"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
