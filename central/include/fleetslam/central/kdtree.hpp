@@ -3,10 +3,10 @@
 // are contiguous). Exact nearest / k-nearest queries bounded by a distance; equal distances are broken
 // by the smaller point index, so every answer equals a brute-force search's (tested against one).
 //
-// Why not nanoflann or PCL's KdTreeFLANN: on 200k-point room clouds on the 2-core build machine
-// (bench figures of this project, -O2): build 55 ms here vs 145 ms nanoflann 1.4.3 and 78 ms FLANN;
-// 200k nearest-within-30-cm queries 75-117 ms here vs 190 ms nanoflann and 870 ms through PCL
-// (its per-query vector allocations).
+// Why not nanoflann or PCL's KdTreeFLANN: on 200k-point room clouds on the 2-core build machine (one-off
+// comparison at -O2 when this was written, same load): build 55 ms here vs 145 ms nanoflann 1.4.3 and
+// 78 ms FLANN; 200k nearest-within-30-cm queries 75-117 ms here (now 65-110 ms with box-distance
+// pruning, bench_merge BM_KdTree) vs 190 ms nanoflann and 870 ms through PCL (per-query allocations).
 
 #include <cstddef>
 #include <cstdint>
