@@ -26,29 +26,40 @@ bool is_rigid(const Eigen::Isometry3d& T) {
   return (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
 }
 
+}  // namespace
+
+namespace detail {
+
 // Which robot each point of the merged cloud came from: robot i owns [begin, end).
-struct Owner {
+struct MergedOwner {
   std::size_t robot;  // position in the input
   std::size_t begin;
   std::size_t end;
 };
 
 // Merging state: the merged cloud and who owns which part.
-struct Merged {
+struct MergedCloud {
   core::PointCloud cloud;
-  std::vector<Owner> owners;
+  std::vector<MergedOwner> owners;
 
   void add(std::size_t robot, const core::PointCloud& cloud_world) {
-    owners.push_back(Owner{robot, cloud.size(), cloud.size() + cloud_world.size()});
+    owners.push_back(MergedOwner{robot, cloud.size(), cloud.size() + cloud_world.size()});
     cloud.append(cloud_world);
   }
 };
 
+}  // namespace detail
+
+namespace {
+
+using detail::MergedCloud;
+using detail::MergedOwner;
+
 // Mutual pairs per robot already merged (the A side of the overlap is the merged cloud).
-std::vector<std::pair<int, std::size_t>> pairs_per_robot(const Overlap& overlap, const Merged& merged,
+std::vector<std::pair<int, std::size_t>> pairs_per_robot(const Overlap& overlap, const MergedCloud& merged,
                                                          const std::vector<RobotCloud>& robots) {
   std::vector<std::pair<int, std::size_t>> counts;
-  for (const Owner& owner : merged.owners) {
+  for (const MergedOwner& owner : merged.owners) {
     const auto first = std::lower_bound(overlap.indices_a.begin(), overlap.indices_a.end(), owner.begin);
     const auto last = std::lower_bound(overlap.indices_a.begin(), overlap.indices_a.end(), owner.end);
     counts.emplace_back(robots[owner.robot].robot_id, static_cast<std::size_t>(last - first));
@@ -126,20 +137,10 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   }
 }
 
-MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
-  const Clock::time_point start = Clock::now();
-  std::set<int> ids;
-  for (const RobotCloud& robot : robots) {
-    if (!ids.insert(robot.robot_id).second) {
-      throw InputError("merge", "robot id " + std::to_string(robot.robot_id) + " appears twice");
-    }
-  }
-  MergeResult result;
-  result.robots.resize(robots.size());
-
-  // Each robot's finite points in the world by its prior.
-  std::vector<core::PointCloud> clouds_world(robots.size());
-  std::vector<std::size_t> pending;
+// Each robot's finite points in the world by its prior; the robots that can be merged, in input order.
+std::vector<std::size_t> MapMerger::place_by_priors(const std::vector<RobotCloud>& robots, MergeResult& result,
+                                                    std::vector<core::PointCloud>& clouds_world) const {
+  std::vector<std::size_t> usable;
   for (std::size_t i = 0; i < robots.size(); ++i) {
     RobotMergeReport& report = result.robots[i];
     report.robot_id = robots[i].robot_id;
@@ -160,10 +161,47 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
       report.status = "empty cloud: nothing to merge";
       logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
     }
-    pending.push_back(i);
+    usable.push_back(i);
   }
+  return usable;
+}
 
-  Merged merged;
+// Coarse matching of robot i against the merged cloud, then fine matching when the overlap is large
+// enough. False when the robot has to wait for the merged cloud to grow.
+bool MapMerger::match(std::size_t i, const std::vector<RobotCloud>& robots, const MergedCloud& merged,
+                      core::PointCloud& cloud_world, MergeResult& result) const {
+  RobotMergeReport& report = result.robots[i];
+  const Clock::time_point stage = Clock::now();
+  const Overlap overlap = overlap_.find(merged.cloud, cloud_world);
+  result.timings.coarse_ms += ms_since(stage);
+  report.overlap_points = overlap.size();
+  report.overlap_mean_distance_m = overlap.mean_distance_m;
+  report.overlap_with = pairs_per_robot(overlap, merged, robots);
+  logger_->info("merge: robot {}: coarse overlap {} pairs (mean distance {:.3f} m) with {} merged points",
+                report.robot_id, overlap.size(), overlap.mean_distance_m, merged.cloud.size());
+  if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) return false;
+  if (config_.registration.enabled) {
+    fine_match(report, overlap, merged.cloud, cloud_world, result.timings);
+  } else {
+    report.status = "coarse only (registration disabled)";
+  }
+  return true;
+}
+
+MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
+  const Clock::time_point start = Clock::now();
+  std::set<int> ids;
+  for (const RobotCloud& robot : robots) {
+    if (!ids.insert(robot.robot_id).second) {
+      throw InputError("merge", "robot id " + std::to_string(robot.robot_id) + " appears twice");
+    }
+  }
+  MergeResult result;
+  result.robots.resize(robots.size());
+  std::vector<core::PointCloud> clouds_world(robots.size());
+  std::vector<std::size_t> pending = place_by_priors(robots, result, clouds_world);
+
+  MergedCloud merged;
   const auto place = [&](std::size_t i, const std::string& status) {
     RobotMergeReport& report = result.robots[i];
     report.placed = true;
@@ -176,61 +214,44 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
     place(pending.front(), "reference");
     pending.erase(pending.begin());
   }
-
   // Coarse-to-fine matching against the merged cloud so far; see the header for the order.
   std::vector<std::size_t> tried_at(robots.size(), static_cast<std::size_t>(-1));  // merged size at last try
   while (!pending.empty()) {
     bool placed_any = false;
     for (auto it = pending.begin(); it != pending.end();) {
       const std::size_t i = *it;
-      RobotMergeReport& report = result.robots[i];
-      if (clouds_world[i].empty()) {  // nothing to match; placed so that its report is final
-        place(i, "empty cloud");
+      // An empty cloud has nothing to match: placed so that its report is final. A robot already tried
+      // against this merged cloud waits.
+      const bool untried = !clouds_world[i].empty() && tried_at[i] != merged.cloud.size();
+      if (untried) tried_at[i] = merged.cloud.size();
+      if (clouds_world[i].empty() || (untried && match(i, robots, merged, clouds_world[i], result))) {
+        place(i, "matched");  // match() and place_by_priors() set the precise status
         it = pending.erase(it);
         placed_any = true;
-        continue;
-      }
-      if (tried_at[i] == merged.cloud.size()) {  // the merged cloud has not changed since
-        ++it;
-        continue;
-      }
-      tried_at[i] = merged.cloud.size();
-      Clock::time_point stage = Clock::now();
-      const Overlap overlap = overlap_.find(merged.cloud, clouds_world[i]);
-      result.timings.coarse_ms += ms_since(stage);
-      report.overlap_points = overlap.size();
-      report.overlap_mean_distance_m = overlap.mean_distance_m;
-      report.overlap_with = pairs_per_robot(overlap, merged, robots);
-      logger_->info("merge: robot {}: coarse overlap {} pairs (mean distance {:.3f} m) with {} merged points",
-                    report.robot_id, overlap.size(), overlap.mean_distance_m, merged.cloud.size());
-      if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) {
-        ++it;  // waits for the merged cloud to grow
-        continue;
-      }
-      if (config_.registration.enabled) {
-        fine_match(report, overlap, merged.cloud, clouds_world[i], result.timings);
       } else {
-        report.status = "coarse only (registration disabled)";
+        ++it;
       }
-      place(i, report.status);
-      it = pending.erase(it);
-      placed_any = true;
     }
-    if (!placed_any && !pending.empty()) {
-      const std::size_t i = pending.front();
-      RobotMergeReport& report = result.robots[i];
+    if (!placed_any && !pending.empty()) {  // nobody overlaps: the first waiting robot keeps its prior
+      RobotMergeReport& report = result.robots[pending.front()];
       report.status = report.overlap_points == 0
                           ? "no overlap: prior kept"
                           : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): prior kept";
       logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
-      place(i, report.status);
+      place(pending.front(), report.status);
       pending.erase(pending.begin());
     }
   }
+  finish(std::move(merged.cloud), result);
+  result.timings.total_ms = ms_since(start);
+  return result;
+}
 
-  result.points_before_sampling = merged.cloud.size();
+// Uniform sampling and Gaussian filtering of the merged cloud, with counts and timings.
+void MapMerger::finish(core::PointCloud merged, MergeResult& result) const {
+  result.points_before_sampling = merged.size();
   Clock::time_point stage = Clock::now();
-  SamplingResult sampled = sampler_.sample(merged.cloud);
+  SamplingResult sampled = sampler_.sample(merged);
   result.timings.sampling_ms = ms_since(stage);
   result.points_after_sampling = sampled.points_after;
   stage = Clock::now();
@@ -238,19 +259,15 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
   result.timings.filter_ms = ms_since(stage);
   result.points_after_filter = filtered.points;
   result.cloud_world = std::move(filtered.cloud);
-  result.timings.total_ms = ms_since(start);
   const double reduction = result.points_before_sampling == 0
                                ? 0.0
                                : 100.0 * (1.0 - static_cast<double>(result.points_after_sampling) /
                                                     static_cast<double>(result.points_before_sampling));
-  logger_->info("merge: {} robots, {} points merged, {} after uniform sampling ({:.2f} % fewer), {} after Gaussian "
-                "filtering (mean shift {:.4f} m); coarse {:.1f} ms, fine {:.1f} ms, sampling {:.1f} ms, filter {:.1f} ms, "
-                "total {:.1f} ms",
-                robots.size(), result.points_before_sampling, result.points_after_sampling, reduction,
-                result.points_after_filter, filtered.mean_shift_m, result.timings.coarse_ms,
-                result.timings.registration_ms, result.timings.sampling_ms, result.timings.filter_ms,
-                result.timings.total_ms);
-  return result;
+  logger_->info("merge: {} points merged, {} after uniform sampling ({:.2f} % fewer), {} after Gaussian filtering "
+                "(mean shift {:.4f} m); coarse {:.1f} ms, fine {:.1f} ms, sampling {:.1f} ms, filter {:.1f} ms",
+                result.points_before_sampling, result.points_after_sampling, reduction, result.points_after_filter,
+                filtered.mean_shift_m, result.timings.coarse_ms, result.timings.registration_ms,
+                result.timings.sampling_ms, result.timings.filter_ms);
 }
 
 }  // namespace fleetslam::central

@@ -103,6 +103,10 @@ struct MergeResult {
   MergeTimings timings;
 };
 
+namespace detail {
+struct MergedCloud;
+}  // namespace detail
+
 class MapMerger {
  public:
   using Config = MapMergerConfig;
@@ -116,8 +120,13 @@ class MapMerger {
   const Config& config() const { return config_; }
 
  private:
+  std::vector<std::size_t> place_by_priors(const std::vector<RobotCloud>& robots, MergeResult& result,
+                                           std::vector<core::PointCloud>& clouds_world) const;
+  bool match(std::size_t i, const std::vector<RobotCloud>& robots, const detail::MergedCloud& merged,
+             core::PointCloud& cloud_world, MergeResult& result) const;
   void fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                   core::PointCloud& cloud_world, MergeTimings& timings) const;
+  void finish(core::PointCloud merged, MergeResult& result) const;
 
   Config config_;
   OverlapFinder overlap_;
