@@ -233,6 +233,36 @@ TEST(MapIo, LocalizationOnlyRunLocalisesEveryFrameInTheLoadedMap) {
   EXPECT_LT(second_world, 2.0 * first + 0.005);
 }
 
+// A map made with one vocabulary, loaded by an agent with another: the BoW vectors are recomputed with
+// the agent's, and relocalisation still finds the map.
+TEST(MapIo, LoadingWithAnotherVocabularyRecomputesBow) {
+  const FirstRun& run = first_run();
+  const fs::path dir = test_dir();
+  std::vector<cv::Mat> training;
+  for (const auto& [id, kf] : run.map.keyframes()) training.push_back(kf.frame.descriptors);
+  VocabularyConfig small;
+  small.branching = 6;
+  small.depth_levels = 3;
+  const Vocabulary other = VocabularyTrainer(small).train(training);
+  other.save(dir / "other.fsvoc");
+  write_bytes(dir / "map.fsmap", run.bytes);
+  AgentConfig config;
+  config.place_recognition.vocabulary = (dir / "other.fsvoc").string();
+  config.localization_only = true;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  agent.load_map(dir / "map.fsmap");
+  const Map map = agent.map_copy();
+  for (const auto& [id, kf] : map.keyframes()) {
+    const BowTransform expected = other.transform(kf.frame.descriptors, config.place_recognition.levels_up);
+    EXPECT_TRUE(kf.bow == expected.bow) << "keyframe " << id;
+    EXPECT_TRUE(kf.bow_features == expected.features) << "keyframe " << id;
+  }
+  int tracked = 0;
+  for (int i = 0; i < 10; ++i) tracked += agent.process(sequence()[static_cast<std::size_t>(i)]).has_pose() ? 1 : 0;
+  EXPECT_EQ(tracked, 10);
+  EXPECT_EQ(agent.map_stats().keyframes, run.map.keyframe_count());
+}
+
 TEST(MapIo, LocalizationOnlyWithoutAMapTracksNothing) {
   AgentConfig config;
   config.localization_only = true;
