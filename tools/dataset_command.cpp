@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/error.hpp"
@@ -32,12 +33,6 @@ struct DatasetOptions {
   std::int64_t stride = 1;
   bool skip_unreadable = false;
 };
-
-core::Logger make_cli_logger(const GlobalOptions& global) {
-  const core::LogLevel level =
-      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
-  return core::make_logger("dataset", level);
-}
 
 std::unique_ptr<core::FrameSource> open_source(const DatasetOptions& options, core::DatasetConfig config,
                                                const core::Logger& logger) {
@@ -157,7 +152,7 @@ nlohmann::json check_frames(const DatasetOptions& options, const core::Logger& l
 }
 
 void run_info(const DatasetOptions& options, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("dataset", global);
   core::DatasetConfig config;
   config.load_images = false;
   config.skip_unreadable_frames = true;  // inspection reports absent images instead of stopping at them
@@ -176,7 +171,7 @@ void run_info(const DatasetOptions& options, const GlobalOptions& global) {
 }
 
 void run_convert(const DatasetOptions& options, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("dataset", global);
   core::DatasetConfig config;
   config.start_index = options.start;
   config.stop_index = options.stop;

@@ -6,7 +6,6 @@
 //   DIR/<robot>/...                        the robot's sequence (core::make_dataset_writer)
 //   DIR/<robot>/orbslam_settings.yaml      its sensors as ORB-SLAM3 settings (core::write_orbslam_settings)
 
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -20,6 +19,7 @@
 #include <opencv2/imgproc.hpp>
 #include <spdlog/logger.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/dataset.hpp"
@@ -56,12 +56,6 @@ struct RobotOutput {
   core::SensorRig rig;    // as the written sequence describes it
   std::unique_ptr<core::FrameSink> sink;
 };
-
-core::Logger make_cli_logger(const GlobalOptions& global) {
-  const core::LogLevel level =
-      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
-  return core::make_logger("generate", level);
-}
 
 std::string robot_key(const GenerateOptions& options, std::size_t index, const std::string& key) {
   return options.scenario + ":robots[" + std::to_string(index) + "]." + key;
@@ -196,27 +190,12 @@ void prepare_for_euroc(core::SensorFrame& frame) {
   frame.depth_m.release();
 }
 
-// A bar redrawn in place on a terminal; a log line per 10 % otherwise.
-core::Progress make_progress(core::TimeNs end_ns, const core::Logger& logger) {
-  const auto total_ms = static_cast<std::size_t>(std::max<core::TimeNs>(end_ns / 1000000, 1));
-  if (::isatty(::fileno(stderr)) == 0) {
-    return core::Progress("simulated ms", total_ms, core::Progress::log_sink(logger));
-  }
-  const core::Progress::Sink bar = [](std::size_t done, std::size_t total, const std::string& label) {
-    constexpr std::size_t kWidth = 40;
-    const std::size_t filled = total > 0 ? std::min(kWidth, done * kWidth / total) : kWidth;
-    std::cerr << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, ' ') << "] "
-              << (total > 0 ? done * 100 / total : 100) << " % of " << total << " " << label
-              << (done >= total ? "\n" : "") << std::flush;
-  };
-  return core::Progress("simulated ms", total_ms, bar, core::Progress::Config{0.01});
-}
-
 // Steps the world to its end and hands each written robot's frames to its sink.
 void run_world(sim::World& world, std::vector<RobotOutput>& outputs, core::DatasetFormat format,
                const core::Logger& logger) {
   if (format == core::DatasetFormat::kEuroc) logger->info("EuRoC layout: images written gray, depth maps left out");
-  core::Progress progress = make_progress(world.end_ns(), logger);
+  core::Progress progress =
+      make_progress(static_cast<std::size_t>(std::max<core::TimeNs>(world.end_ns() / 1000000, 1)), "simulated ms", logger);
   while (!world.finished()) {
     for (core::SensorFrame& frame : world.step()) {
       const auto output = std::find_if(outputs.begin(), outputs.end(), [&](const RobotOutput& o) {
@@ -233,7 +212,7 @@ void run_world(sim::World& world, std::vector<RobotOutput>& outputs, core::Datas
 }
 
 void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("generate", global);
   const fs::path out = options.out;
   check_output_folder(out);
   const core::DatasetFormat format =

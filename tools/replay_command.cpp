@@ -15,7 +15,6 @@
 // <robot>/groundtruth.txt, central_config.yaml and metrics.json with each robot's ATE in the world frame
 // and the point counts before and after sampling.
 
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -32,6 +31,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/dataset.hpp"
@@ -66,12 +66,6 @@ struct ReplayOptions {
   std::string load_map;    // the agent localises (localization only) in this saved map
 };
 
-core::Logger make_cli_logger(const GlobalOptions& global) {
-  const core::LogLevel level =
-      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
-  return core::make_logger("replay", level);
-}
-
 // Defaults, then the ORB-SLAM settings file's ORB and close-depth values, then the config file.
 slam::AgentConfig agent_config(const ReplayOptions& o, const std::optional<core::OrbSlamSettings>& settings) {
   slam::AgentConfig config;
@@ -84,11 +78,7 @@ slam::AgentConfig agent_config(const ReplayOptions& o, const std::optional<core:
     orb.min_fast_threshold = settings->orb.min_fast_threshold;
     if (settings->th_depth > 0.0) config.frontend.close_depth_baselines = settings->th_depth;
   }
-  if (!o.config.empty()) {
-    core::ConfigReader reader = core::ConfigReader::from_file(o.config).section("");
-    config.visit(reader);
-    reader.finish();
-  }
+  config = read_config_file(o.config, config);
   if (o.sensor == "rgbd") config.sensor = slam::AgentSensor::kRgbd;
   if (o.sensor == "stereo") config.sensor = slam::AgentSensor::kStereo;
   if (!o.vocabulary.empty()) {
@@ -117,18 +107,6 @@ std::unique_ptr<core::FrameSource> open_source(const ReplayOptions& o,
   std::optional<core::DatasetFormat> format;
   if (!o.format.empty()) format = core::dataset_format_from_string(o.format);
   return core::open_dataset(o.dataset, format, config, logger);
-}
-
-// A bar redrawn in place on a terminal; a log line per 10 % otherwise.
-core::Progress make_progress(std::size_t frames, const core::Logger& logger) {
-  if (::isatty(::fileno(stderr)) == 0) return core::Progress("frames", frames, core::Progress::log_sink(logger));
-  const core::Progress::Sink bar = [](std::size_t done, std::size_t total, const std::string& label) {
-    constexpr std::size_t kWidth = 40;
-    const std::size_t filled = total > 0 ? std::min(kWidth, done * kWidth / total) : kWidth;
-    std::cerr << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, ' ') << "] " << done << "/"
-              << total << " " << label << (done >= total ? "\n" : "") << std::flush;
-  };
-  return core::Progress("frames", frames, bar, core::Progress::Config{0.01});
 }
 
 std::string csv_text(const std::string& text) {
@@ -163,24 +141,17 @@ class RunLog {
   }
 
   void write(const fs::path& out) const {
-    write_text(out / "timings.csv",
+    write_text_file(out / "timings.csv",
                "sequence,t_s,status,features,features_with_depth,inliers,extract_ms,match_ms,pose_ms,local_map_ms,"
                "tracking_ms,mapping_ms,total_ms\n" + timings_);
     std::string header = "sequence,t_s,insert,score,reason";
     for (const std::string& name : factor_names_) header += "," + name;
-    write_text(out / "keyframe_decisions.csv", header + "\n" + decisions_);
+    write_text_file(out / "keyframe_decisions.csv", header + "\n" + decisions_);
   }
 
   const std::map<std::string, int>& status_counts() const { return status_counts_; }
   const std::vector<double>& tracking_ms() const { return tracking_ms_; }
   const std::vector<double>& total_ms() const { return total_ms_; }
-
-  static void write_text(const fs::path& path, const std::string& text) {
-    std::ofstream file(path, std::ios::binary | std::ios::trunc);
-    if (!file) throw InputError(path.string(), "cannot open the file for writing");
-    file << text;
-    if (!file.flush()) throw InputError(path.string(), "write failed");
-  }
 
  private:
   void add_decision(const slam::AgentUpdate& u) {
@@ -244,7 +215,7 @@ struct RunResult {
 
 RunResult run_agent(slam::Agent& agent, core::FrameSource& source, const core::Logger& logger) {
   RunResult run;
-  core::Progress progress = make_progress(source.size(), logger);
+  core::Progress progress = make_progress(source.size(), "frames", logger);
   while (std::optional<core::SensorFrame> frame = source.next()) {
     const slam::AgentUpdate update = agent.process(*frame);
     run.log.add(update);
@@ -292,16 +263,6 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
               out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply");
 }
 
-central::ServerConfig server_config(const ReplayOptions& o) {
-  central::ServerConfig config;
-  if (!o.central_config.empty()) {
-    core::ConfigReader reader = core::ConfigReader::from_file(o.central_config).section("");
-    config.visit(reader);
-    reader.finish();
-  }
-  return config;
-}
-
 // The sequence's parts as robots: frame k of n goes to robot floor(k * parts / n).
 void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const slam::AgentConfig& config,
                       core::FrameSource& source, const core::Logger& logger, const fs::path& out) {
@@ -311,8 +272,8 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
     throw InputError(o.dataset, "--split " + std::to_string(parts) + " needs at least " + std::to_string(2 * parts) +
                                     " frames, the sequence has " + std::to_string(total));
   }
-  const central::ServerConfig central_config = server_config(o);
-  RunLog::write_text(out / "central_config.yaml", core::config_to_yaml(central_config));
+  const central::ServerConfig central_config = read_config_file<central::ServerConfig>(o.central_config);
+  write_text_file(out / "central_config.yaml", core::config_to_yaml(central_config));
   central::Server server(central_config, logger);
   central::InProcessLink link;
   std::vector<slam::Agent> agents;
@@ -323,7 +284,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
     names.push_back(std::string("robot_") + static_cast<char>('a' + static_cast<int>(r % 26)) +
                     (r >= 26 ? std::to_string(r / 26) : std::string()));
   }
-  core::Progress progress = make_progress(total, logger);
+  core::Progress progress = make_progress(total, "frames", logger);
   std::size_t k = 0;
   std::vector<std::int64_t> first_index(parts, -1);
   while (std::optional<core::SensorFrame> frame = source.next()) {
@@ -364,7 +325,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
   const central::MergeResult& m = report.merge;
   const nlohmann::json metrics = {{"command", "fleetslam replay --split"}, {"dataset", o.dataset}, {"split", parts},
                                   {"frames", total}, {"robots", robots}, {"merge", central::to_json(m)}};
-  RunLog::write_text(out / "metrics.json", metrics.dump(2) + "\n");
+  write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
   if (global.quiet) return;
   for (const nlohmann::json& entry : robots) {
     std::printf("%-12s %zu frames from %lld, tracked %zu", entry["name"].get<std::string>().c_str(),
@@ -383,7 +344,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
 }
 
 void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("replay", global);
   std::optional<core::OrbSlamSettings> settings;
   if (!o.calibration.empty()) settings = core::read_orbslam_settings(o.calibration);
   const slam::AgentConfig config = agent_config(o, settings);
@@ -392,7 +353,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
-  RunLog::write_text(out / "config.yaml", core::config_to_yaml(config));
+  write_text_file(out / "config.yaml", core::config_to_yaml(config));
   if (o.split > 1) {
     if (!o.save_map.empty() || !o.load_map.empty()) throw InputError("--split", "takes neither --save-map nor --load-map");
     run_split_replay(o, global, config, *source, logger, out);
@@ -452,7 +413,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
       ate.reset();
     }
   }
-  RunLog::write_text(out / "metrics.json", metrics.dump(2) + "\n");
+  write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
   if (global.quiet) return;
   print_summary(run, ate, out);
   if (!o.load_map.empty()) std::printf("loaded map:   %s in %.3f s (localization only)\n", o.load_map.c_str(), load_s);

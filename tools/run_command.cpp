@@ -15,7 +15,6 @@
 //                                          prior and refined inter-robot alignment errors; merged map
 //                                          accuracy and completeness; counts, timings, real-time factor
 
-#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -31,6 +30,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "fleetslam/central/link.hpp"
 #include "fleetslam/central/map_evaluation.hpp"
@@ -61,42 +61,6 @@ struct RunOptions {
   double truth_spacing_m = 0.01;
   std::string vocabulary;  // place_recognition.vocabulary of every agent; empty: the config's
 };
-
-core::Logger make_cli_logger(const GlobalOptions& global) {
-  const core::LogLevel level =
-      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
-  return core::make_logger("run", level);
-}
-
-template <class Config>
-Config read_config(const std::string& file) {
-  Config config;
-  if (file.empty()) return config;
-  core::ConfigReader reader = core::ConfigReader::from_file(file).section("");
-  config.visit(reader);
-  reader.finish();
-  return config;
-}
-
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw InputError(path.string(), "cannot open the file for writing");
-  file << text;
-  if (!file.flush()) throw InputError(path.string(), "write failed");
-}
-
-core::Progress make_progress(core::TimeNs end_ns, const core::Logger& logger) {
-  const auto total_ms = static_cast<std::size_t>(std::max<core::TimeNs>(end_ns / 1000000, 1));
-  if (::isatty(::fileno(stderr)) == 0) return core::Progress("simulated ms", total_ms, core::Progress::log_sink(logger));
-  const core::Progress::Sink bar = [](std::size_t done, std::size_t total, const std::string& label) {
-    constexpr std::size_t kWidth = 40;
-    const std::size_t filled = total > 0 ? std::min(kWidth, done * kWidth / total) : kWidth;
-    std::cerr << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, ' ') << "] "
-              << (total > 0 ? done * 100 / total : 100) << " % of " << total << " " << label
-              << (done >= total ? "\n" : "") << std::flush;
-  };
-  return core::Progress("simulated ms", total_ms, bar, core::Progress::Config{0.01});
-}
 
 // The prior of a robot whose true first camera pose is T_true: shifted by (dx, dy, dz) in the world and
 // turned by yaw about the world's vertical through the camera (so the error is what it says it is).
@@ -130,16 +94,16 @@ struct RobotRun {
 };
 
 void run_scenario(const RunOptions& o, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("run", global);
   sim::ScenarioConfig scenario = sim::load_scenario(o.scenario);
   if (o.seed) scenario.seed = *o.seed;
   if (o.duration_s) scenario.duration_s = *o.duration_s;
-  slam::AgentConfig agent_config = read_config<slam::AgentConfig>(o.agent_config);
+  slam::AgentConfig agent_config = read_config_file<slam::AgentConfig>(o.agent_config);
   if (!o.vocabulary.empty()) {
     agent_config.place_recognition.vocabulary = o.vocabulary;
     slam::load_place_vocabulary(agent_config.place_recognition);  // a bad file fails before the world is built
   }
-  const central::ServerConfig central_config = read_config<central::ServerConfig>(o.central_config);
+  const central::ServerConfig central_config = read_config_file<central::ServerConfig>(o.central_config);
   if (!o.prior_error.empty() && o.prior_error.size() != 4) {
     throw InputError("--prior-error", "needs 4 values: dx dy dz (m) yaw (deg)");
   }
@@ -147,9 +111,9 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
-  write_text(out / "scenario.yaml", core::config_to_yaml(scenario));
-  write_text(out / "agent_config.yaml", core::config_to_yaml(agent_config));
-  write_text(out / "central_config.yaml", core::config_to_yaml(central_config));
+  write_text_file(out / "scenario.yaml", core::config_to_yaml(scenario));
+  write_text_file(out / "agent_config.yaml", core::config_to_yaml(agent_config));
+  write_text_file(out / "central_config.yaml", core::config_to_yaml(central_config));
 
   sim::World world(scenario, logger);
   central::Server server(central_config, logger);
@@ -160,7 +124,8 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
     robots[r].agent = std::make_unique<slam::Agent>(agent_config, world.sensor_rig(r), logger);
   }
   const auto wall_start = std::chrono::steady_clock::now();  // reported only (real-time factor)
-  core::Progress progress = make_progress(world.end_ns(), logger);
+  core::Progress progress =
+      make_progress(static_cast<std::size_t>(std::max<core::TimeNs>(world.end_ns() / 1000000, 1)), "simulated ms", logger);
   while (!world.finished()) {
     for (core::SensorFrame& frame : world.step()) {
       RobotRun& robot = robots.at(static_cast<std::size_t>(frame.robot_id));
@@ -224,7 +189,7 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
                                   {"prior_error", o.prior_error}, {"robots", robots_json},
                                   {"merged_map_accuracy", accuracy_json(merged_accuracy)},
                                   {"merge", central::to_json(report.merge)}};
-  write_text(out / "metrics.json", metrics.dump(2) + "\n");
+  write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
   if (global.quiet) return;
   for (const nlohmann::json& entry : robots_json) {
     std::printf("%-10s %zu frames, tracked %zu", entry["name"].get<std::string>().c_str(), entry["frames"].get<std::size_t>(),

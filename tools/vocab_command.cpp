@@ -17,6 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/logger.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/error.hpp"
@@ -42,12 +43,6 @@ struct VocabOptions {
   std::string file;  // info
   bool json = false;
 };
-
-core::Logger make_cli_logger(const GlobalOptions& global) {
-  const core::LogLevel level =
-      global.quiet ? core::LogLevel::kWarn : (global.verbose ? core::LogLevel::kDebug : core::LogLevel::kInfo);
-  return core::make_logger("vocab", level);
-}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -155,7 +150,7 @@ class DescriptorCollector {
 };
 
 void run_train(const VocabOptions& o, const GlobalOptions& global) {
-  const core::Logger logger = make_cli_logger(global);
+  const core::Logger logger = make_cli_logger("vocab", global);
   if (o.image_folders.empty() && o.datasets.empty()) {
     throw InputError("vocab train", "no images: give --images folders or --dataset sequences");
   }

@@ -1,0 +1,35 @@
+#pragma once
+// What every subcommand of the CLI shares: its logger, its progress display, writing text outputs, and
+// reading an optional config file into a typed config.
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+#include "commands.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/log.hpp"
+
+namespace fleetslam::tools {
+
+// A logger named after the command, at the level --quiet / --verbose ask for.
+core::Logger make_cli_logger(const std::string& command, const GlobalOptions& global);
+
+// On a terminal, a bar redrawn in place ("[####    ] 45 % (450/1000 frames)"); otherwise a log line
+// per 10 %.
+core::Progress make_progress(std::size_t total, const std::string& label, const core::Logger& logger);
+
+// Writes `text` to `path` (truncating); InputError naming the file when that fails.
+void write_text_file(const std::filesystem::path& path, const std::string& text);
+
+// The config's defaults overridden by `file` (every key checked; none when `file` is empty).
+template <class Config>
+Config read_config_file(const std::string& file, Config config = Config{}) {
+  if (file.empty()) return config;
+  core::ConfigReader reader = core::ConfigReader::from_file(file).section("");
+  config.visit(reader);
+  reader.finish();
+  return config;
+}
+
+}  // namespace fleetslam::tools
