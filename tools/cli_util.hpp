@@ -6,9 +6,12 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "commands.hpp"
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/log.hpp"
+#include "fleetslam/slam/loop_closing.hpp"
 
 namespace fleetslam::tools {
 
@@ -21,6 +24,9 @@ core::Progress make_progress(std::size_t total, const std::string& label, const 
 
 // Writes `text` to `path` (truncating); InputError naming the file when that fails.
 void write_text_file(const std::filesystem::path& path, const std::string& text);
+
+// A loop closure as metrics.json reports it: keyframes, time, score, matches, the correction's size.
+nlohmann::json loop_event_json(const slam::LoopEvent& event);
 
 // The config's defaults overridden by `file` (every key checked; none when `file` is empty).
 template <class Config>

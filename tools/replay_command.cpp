@@ -133,6 +133,8 @@ class RunLog {
                 number(t.pose_ms) + "," + number(t.local_map_ms) + "," + number(t.tracking_ms) + "," +
                 number(t.mapping_ms) + "," + number(t.total_ms) + "\n";
     ++status_counts_[slam::to_string(u.status)];
+    relocalizations_ += u.relocalized ? 1 : 0;
+    for (const slam::LoopEvent& loop : u.loops) loops_.push_back(loop_event_json(loop));
     if (u.status == slam::FrameStatus::kTracked || u.status == slam::FrameStatus::kInitialized) {
       tracking_ms_.push_back(t.tracking_ms);
       total_ms_.push_back(t.total_ms);
@@ -150,6 +152,8 @@ class RunLog {
   }
 
   const std::map<std::string, int>& status_counts() const { return status_counts_; }
+  const nlohmann::json& loops() const { return loops_; }
+  int relocalizations() const { return relocalizations_; }
   const std::vector<double>& tracking_ms() const { return tracking_ms_; }
   const std::vector<double>& total_ms() const { return total_ms_; }
 
@@ -168,6 +172,8 @@ class RunLog {
     decisions_ += "\n";
   }
 
+  nlohmann::json loops_ = nlohmann::json::array();
+  int relocalizations_ = 0;
   std::string timings_;
   std::string decisions_;
   std::vector<std::string> factor_names_;
@@ -250,6 +256,7 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
   std::printf(")\nmap:          %zu keyframes, %zu points, %d component(s)\n", run.map.keyframes, run.map.points,
               run.map.components);
   std::printf("dense map:    %zu points (%zu back-projected)\n", run.dense_stats.points, run.dense_stats.back_projected);
+  std::printf("loops:        %zu closed, %d relocalisation(s)\n", run.log.loops().size(), run.log.relocalizations());
   const nlohmann::json tracking = stats_json(run.log.tracking_ms());
   if (!tracking.is_null()) {
     std::printf("tracking:     median %.1f ms, p90 %.1f ms per frame\n", tracking["median"].get<double>(),
@@ -387,6 +394,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"frames", run.frames}, {"status_counts", run.log.status_counts()},
                             {"keyframes", run.map.keyframes}, {"map_points", run.map.points},
                             {"components", run.map.components},
+                            {"loops", run.log.loops()}, {"relocalizations", run.log.relocalizations()},
                             {"dense_points", run.dense_stats.points},
                             {"dense_back_projected", run.dense_stats.back_projected},
                             {"tracking_ms", stats_json(run.log.tracking_ms())},

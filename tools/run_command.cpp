@@ -91,6 +91,8 @@ struct RobotRun {
   std::size_t frames = 0;
   std::size_t tracked = 0;
   std::size_t lost = 0;
+  std::size_t relocalizations = 0;
+  nlohmann::json loops = nlohmann::json::array();
 };
 
 void run_scenario(const RunOptions& o, const GlobalOptions& global) {
@@ -141,6 +143,8 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
       ++robot.frames;
       robot.tracked += update.has_pose() ? 1 : 0;
       robot.lost += update.status == slam::FrameStatus::kLost ? 1 : 0;
+      robot.relocalizations += update.relocalized ? 1 : 0;
+      for (const slam::LoopEvent& loop : update.loops) robot.loops.push_back(loop_event_json(loop));
       link.send(std::move(update));
     }
     server.integrate_all(link);
@@ -160,7 +164,8 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   for (std::size_t r = 0; r < robots.size(); ++r) {
     RobotRun& robot = robots[r];
     const int id = static_cast<int>(r);
-    nlohmann::json entry = {{"name", robot.name}, {"frames", robot.frames}, {"tracked", robot.tracked}, {"lost", robot.lost}};
+    nlohmann::json entry = {{"name", robot.name}, {"frames", robot.frames}, {"tracked", robot.tracked}, {"lost", robot.lost},
+                            {"relocalizations", robot.relocalizations}, {"loops", robot.loops}};
     if (!robot.T_world_robot_true) {
       robots_json.push_back(entry);
       continue;
