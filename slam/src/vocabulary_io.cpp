@@ -32,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "binary_io.hpp"
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/slam/vocabulary.hpp"
 
@@ -67,61 +68,9 @@ void write_file(const fs::path& file, const std::string& data) {
   if (!out) throw InputError(file.string(), "cannot write the vocabulary");
 }
 
-std::uint64_t fnv1a(const char* data, std::size_t size) {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  for (std::size_t i = 0; i < size; ++i) {
-    hash ^= static_cast<unsigned char>(data[i]);
-    hash *= 0x100000001b3ULL;
-  }
-  return hash;
-}
-
-// Little-endian encoding whatever the host's byte order.
-class Writer {
- public:
-  void bytes(const void* p, std::size_t n) { out_.append(static_cast<const char*>(p), n); }
-  void u32(std::uint32_t v) { put(v, 4); }
-  void u64(std::uint64_t v) { put(v, 8); }
-  void f64(double v) {
-    std::uint64_t bits = 0;
-    std::memcpy(&bits, &v, sizeof bits);
-    u64(bits);
-  }
-  std::string& str() { return out_; }
-
- private:
-  void put(std::uint64_t v, int n) {
-    for (int i = 0; i < n; ++i) out_.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
-  }
-  std::string out_;
-};
-
-class Reader {
- public:
-  explicit Reader(const std::string& data) : data_(data) {}
-  void bytes(void* p, std::size_t n) {
-    std::memcpy(p, data_.data() + pos_, n);
-    pos_ += n;
-  }
-  std::uint32_t u32() { return static_cast<std::uint32_t>(get(4)); }
-  std::uint64_t u64() { return get(8); }
-  double f64() {
-    const std::uint64_t bits = u64();
-    double v = 0.0;
-    std::memcpy(&v, &bits, sizeof v);
-    return v;
-  }
-
- private:
-  std::uint64_t get(int n) {
-    std::uint64_t v = 0;
-    for (int i = 0; i < n; ++i) v |= std::uint64_t{static_cast<unsigned char>(data_[pos_ + static_cast<std::size_t>(i)])} << (8 * i);
-    pos_ += static_cast<std::size_t>(n);
-    return v;
-  }
-  const std::string& data_;
-  std::size_t pos_ = 0;
-};
+using binary::fnv1a;
+using binary::Reader;
+using binary::Writer;
 
 bool has_magic(const std::string& data) {
   return data.size() >= sizeof kMagic && std::memcmp(data.data(), kMagic, sizeof kMagic) == 0;
@@ -138,7 +87,7 @@ Vocabulary parse_binary(const std::string& data, const std::string& where) {
     throw InputError(where, "truncated: " + std::to_string(data.size()) + " bytes, less than a vocabulary header");
   }
   if (!has_magic(data)) throw InputError(where, "not a fleetslam binary vocabulary (bad magic)");
-  Reader in(data);
+  Reader in(data, 0, data.size(), where);
   char magic[sizeof kMagic];
   in.bytes(magic, sizeof magic);
   const std::uint32_t version = in.u32();
