@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_test_util.hpp"
+
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,6 +22,7 @@ namespace fleetslam {
 namespace {
 
 namespace fs = std::filesystem;
+using test::read_text;
 
 const fs::path kData = FLEETSLAM_DATA_DIR;
 const fs::path kTum = kData / "tum" / "rgbd_dataset_freiburg1_rpy_200";
@@ -30,13 +33,6 @@ const std::string kEurocGt = "--groundtruth '" + (kEuroc / "groundtruth_leftcam_
   if (!fs::is_directory(folder)) {                                                                 \
     GTEST_SKIP() << "real data not found at " << (folder) << " (set FLEETSLAM_DATA_DIR to the shared data)"; \
   }
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 // A fresh folder per test.
 class DatasetCli : public ::testing::Test {

@@ -13,55 +13,28 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_test_util.hpp"
+
 #include "fleetslam/core/trajectory.hpp"
 
 namespace fleetslam {
 namespace {
 
 namespace fs = std::filesystem;
+using test::read_text;
+using RunResult = test::CliResult;
+
+test::CliResult run_in(const fs::path& cwd, const std::string& arguments) { return test::run_cli(arguments, cwd); }
+fs::path test_dir() { return test::fresh_test_dir("fleetslam_test_eval_cli"); }
 using core::StampedPose;
 using core::Trajectory;
 using core::TrajectoryFormat;
 
 const fs::path kData = FLEETSLAM_DATA_DIR;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-RunResult run_in(const fs::path& cwd, const std::string& arguments) {
-  const std::string command = "cd '" + cwd.string() + "' && '" FLEETSLAM_CLI "' " + arguments + " 2>&1";
-  RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  std::size_t n = 0;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-fs::path test_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() / "fleetslam_test_eval_cli" /
-                       (std::string(info->test_suite_name()) + "." + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 nlohmann::json read_json(const fs::path& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // A picture is complete: one svg element, closed, with both trajectories, the error curve and labels.

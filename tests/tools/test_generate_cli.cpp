@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_test_util.hpp"
+
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -31,6 +33,7 @@ namespace fleetslam {
 namespace {
 
 namespace fs = std::filesystem;
+using test::read_text;
 
 constexpr double kPoseTolerance = 1e-9;        // metres and radians
 constexpr double kDepthTolerance = 1.0 / 5000;  // one raw unit of the TUM depth PNGs
@@ -67,13 +70,6 @@ robots:
     stereo: {enabled: true, baseline_m: 0.1}
     waypoints: [{t_s: 0, x: 0, y: 1, z: 1}, {t_s: 2, x: 0.5, y: 1.2, z: 1.1, yaw_deg: 20}]
 )";
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 // What the simulator gives for the scenario: every robot's frames and rig.
 struct Simulated {

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_test_util.hpp"
+
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -18,16 +20,10 @@ namespace fleetslam {
 namespace {
 
 namespace fs = std::filesystem;
+using test::read_text;
 
 const fs::path kTextures = fs::path(FLEETSLAM_SOURCE_DIR) / "scenes" / "textures";
 const fs::path kTum = fs::path(FLEETSLAM_DATA_DIR) / "tum" / "rgbd_dataset_freiburg1_rpy_200";
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 class VocabCli : public ::testing::Test {
  protected:
