@@ -18,6 +18,8 @@ packages=(
   libpcl-dev
   # planners (OMPL sampling-based planners on the fused map)
   libompl-dev
+  # run reports: the tests look at report.html in a real headless browser
+  chromium
 )
 
 missing=()

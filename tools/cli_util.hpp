@@ -11,7 +11,7 @@
 #include "commands.hpp"
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/log.hpp"
-#include "fleetslam/slam/loop_closing.hpp"
+#include "fleetslam/runner/outputs.hpp"
 
 namespace fleetslam::tools {
 
@@ -22,11 +22,9 @@ core::Logger make_cli_logger(const std::string& command, const GlobalOptions& gl
 // per 10 %.
 core::Progress make_progress(std::size_t total, const std::string& label, const core::Logger& logger);
 
-// Writes `text` to `path` (truncating); InputError naming the file when that fails.
-void write_text_file(const std::filesystem::path& path, const std::string& text);
-
-// A loop closure as metrics.json reports it: keyframes, time, score, matches, the correction's size.
-nlohmann::json loop_event_json(const slam::LoopEvent& event);
+// Shared with the runner library: writing text outputs, loop closures as JSON.
+using runner::loop_event_json;
+using runner::write_text_file;
 
 // The config's defaults overridden by `file` (every key checked; none when `file` is empty).
 template <class Config>

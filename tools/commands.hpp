@@ -2,9 +2,17 @@
 // Subcommands of the `fleetslam` CLI. Each registers itself on the app and runs from its callback;
 // failures throw (fleetslam::InputError for bad input), and main prints one line and exits non-zero.
 
+#include <stdexcept>
+
 #include <CLI/CLI.hpp>
 
 namespace fleetslam::tools {
+
+// A command that ran to its end but whose outcome failed its pass criteria (fleetslam run): main prints
+// the message and exits 1 (bad input exits 2, internal errors 3).
+struct CriteriaFailed : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 // Options shared by every command.
 struct GlobalOptions {
@@ -32,8 +40,9 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global);
 // --max-images N --seed S]: train a bag-of-words vocabulary from ORB features; fleetslam vocab info FILE.
 void add_vocab_command(CLI::App& app, const GlobalOptions& global);
 
-// fleetslam run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--agent-config C] [--central-config C]
-// [--prior-error dx dy dz yaw_deg]: world, agents and central unit in lockstep, judged against ground truth.
+// fleetslam run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--threads N] [--agent-config C]
+// [--central-config C] [--prior-error dx dy dz yaw_deg]: world, agents, central unit and planner in
+// lockstep, judged against ground truth and the scenario's pass criteria (CriteriaFailed when one fails).
 void add_run_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace fleetslam::tools

@@ -26,6 +26,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const fleetslam::tools::CriteriaFailed& e) {
+    std::cerr << "fleetslam: " << e.what() << "\n";
+    return 1;
   } catch (const fleetslam::InputError& e) {
     std::cerr << "fleetslam: error: " << e.what() << "\n";
     return 2;

@@ -26,6 +26,7 @@
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/orbslam_settings.hpp"
+#include "fleetslam/runner/run_config.hpp"
 #include "fleetslam/sim/scenario.hpp"
 #include "fleetslam/sim/world.hpp"
 
@@ -70,7 +71,8 @@ void check_output_folder(const fs::path& out) {
 }
 
 sim::ScenarioConfig load(const GenerateOptions& options) {
-  sim::ScenarioConfig scenario = sim::load_scenario(options.scenario);
+  // A run scenario (its agent, planner, mission and criteria sections are checked, then not needed here).
+  sim::ScenarioConfig scenario = runner::load_run_scenario(options.scenario).world;
   if (options.duration_given) {
     if (!(options.duration_s > 0.0 && options.duration_s <= 1e6)) {
       throw InputError("--duration", "must be in (0, 1e6] seconds");

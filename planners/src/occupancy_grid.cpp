@@ -186,23 +186,60 @@ void OccupancyGrid::set_cells(const Eigen::Vector2d& origin_world, int width, in
   recompute_clearances();
 }
 
-void OccupancyGrid::block(const std::vector<Disk>& disks_world) {
+template <class Fn>
+void OccupancyGrid::for_cells_in(const std::vector<Disk>& disks_world, Fn&& fn) {
   const double res = config_.resolution_m;
   for (const Disk& disk : disks_world) {
+    if (!disk.center_world.allFinite() || !std::isfinite(disk.radius_m)) continue;
     const int r = static_cast<int>(std::ceil(disk.radius_m / res)) + 1;
-    const std::optional<CellIndex> c = cell_of(disk.center_world);
     const Eigen::Vector2d rel = (disk.center_world - origin_world_) / res;
-    const int cx = c ? c->x : static_cast<int>(std::floor(rel.x()));
-    const int cy = c ? c->y : static_cast<int>(std::floor(rel.y()));
-    for (int y = cy - r; y <= cy + r; ++y) {
-      for (int x = cx - r; x <= cx + r; ++x) {
+    const int cx = static_cast<int>(std::floor(rel.x()));
+    const int cy = static_cast<int>(std::floor(rel.y()));
+    for (int y = std::max(cy - r, 0); y <= std::min(cy + r, height_ - 1); ++y) {
+      for (int x = std::max(cx - r, 0); x <= std::min(cx + r, width_ - 1); ++x) {
         const CellIndex cell{x, y};
-        if (!contains(cell)) continue;
-        if ((center_of(cell) - disk.center_world).norm() <= disk.radius_m) cells_[index(cell)] = CellState::kOccupied;
+        if ((center_of(cell) - disk.center_world).norm() <= disk.radius_m) fn(cells_[index(cell)]);
       }
     }
   }
+}
+
+void OccupancyGrid::block(const std::vector<Disk>& disks_world) {
+  for_cells_in(disks_world, [](CellState& state) { state = CellState::kOccupied; });
   recompute_clearances();
+}
+
+void OccupancyGrid::mark_free(const std::vector<Disk>& disks_world) {
+  for_cells_in(disks_world, [](CellState& state) {
+    if (state == CellState::kUnknown) state = CellState::kFree;
+  });
+  recompute_clearances();
+}
+
+std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
+                                                   double radius_m, UnknownCells unknown) {
+  if (!p_world.allFinite()) return std::nullopt;
+  if (grid.traversable(p_world, unknown)) return p_world;
+  const double res = grid.resolution_m();
+  const Eigen::Vector2d rel = (p_world - grid.origin_world()) / res;
+  const int cx = static_cast<int>(std::floor(rel.x()));
+  const int cy = static_cast<int>(std::floor(rel.y()));
+  const int r = static_cast<int>(std::ceil(radius_m / res)) + 1;
+  std::optional<Eigen::Vector2d> best;
+  double best_m = radius_m;
+  for (int y = cy - r; y <= cy + r; ++y) {
+    for (int x = cx - r; x <= cx + r; ++x) {
+      const CellIndex cell{x, y};
+      if (!grid.contains(cell) || !grid.traversable(cell, unknown)) continue;
+      const Eigen::Vector2d c = grid.center_of(cell);
+      const double d = (c - p_world).norm();
+      if (d <= best_m && (!best || d < best_m)) {
+        best = c;
+        best_m = d;
+      }
+    }
+  }
+  return best;
 }
 
 void OccupancyGrid::recompute_clearances() {

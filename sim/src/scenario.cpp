@@ -46,6 +46,11 @@ void check_start_overlap(const std::filesystem::path& file, const ScenarioConfig
 
 ScenarioConfig load_scenario(const std::filesystem::path& file) {
   ScenarioConfig scenario = core::load_config<ScenarioConfig>(file);
+  validate_scenario(scenario, file);
+  return scenario;
+}
+
+void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& file) {
   scenario.base_dir = file.parent_path();
   if (scenario.robots.empty()) throw InputError(file.string() + ":robots", "a scenario needs at least one robot");
   std::set<std::string> names;
@@ -62,7 +67,6 @@ ScenarioConfig load_scenario(const std::filesystem::path& file) {
   if (!std::filesystem::is_regular_file(scenario.scene_path())) {
     throw InputError(file.string() + ":scene", "scene file '" + scenario.scene_path().string() + "' not found");
   }
-  return scenario;
 }
 
 }  // namespace fleetslam::sim

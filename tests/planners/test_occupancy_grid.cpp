@@ -204,6 +204,61 @@ TEST(OccupancyGrid, BlockAndSetCells) {
   EXPECT_THROW(grid.set_cells({0.0, 0.0}, 4, 4, std::vector<CellState>(3)), InputError);
 }
 
+TEST(OccupancyGrid, MarkFreeClearsOnlyUnknownCells) {
+  OccupancyGridConfig config;
+  config.resolution_m = 0.05;
+  config.robot_radius_m = 0.1;
+  OccupancyGrid grid(config);
+  std::vector<CellState> cells(40 * 20, CellState::kUnknown);
+  cells[10 * 40 + 20] = CellState::kOccupied;  // cell (20, 10): centre (1.025, 0.525)
+  grid.set_cells({0.0, 0.0}, 40, 20, cells);
+  grid.mark_free({Disk{{1.0, 0.5}, 0.2}, Disk{{std::nan(""), 0.0}, 1.0}});
+  std::size_t free = 0;
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const CellIndex cell{x, y};
+      const bool inside = (grid.center_of(cell) - Eigen::Vector2d(1.0, 0.5)).norm() <= 0.2;
+      if (x == 20 && y == 10) {
+        EXPECT_EQ(grid.state(cell), CellState::kOccupied);
+      } else {
+        EXPECT_EQ(grid.state(cell), inside ? CellState::kFree : CellState::kUnknown) << x << "," << y;
+        free += inside ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_EQ(grid.stats().free_cells, free);
+  EXPECT_GT(free, 40u);
+}
+
+TEST(OccupancyGrid, NearestTraversableMatchesBruteForce) {
+  OccupancyGridConfig config;
+  config.resolution_m = 0.05;
+  config.robot_radius_m = 0.12;
+  OccupancyGrid grid(config);
+  grid.set_cells({0.0, 0.0}, 40, 20, std::vector<CellState>(800, CellState::kFree));
+  grid.block({Disk{{1.0, 0.5}, 0.2}});
+  // A traversable point is its own answer.
+  const Eigen::Vector2d open(0.3, 0.5);
+  ASSERT_TRUE(grid.traversable(open, UnknownCells::kOccupied));
+  EXPECT_EQ(*nearest_traversable(grid, open, 0.5, UnknownCells::kOccupied), open);
+  // Inside the inflated disk: the nearest traversable cell centre, as brute force finds it.
+  const Eigen::Vector2d blocked(1.05, 0.52);
+  std::optional<Eigen::Vector2d> brute;
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const Eigen::Vector2d c = grid.center_of({x, y});
+      if (!grid.traversable({x, y}, UnknownCells::kOccupied)) continue;
+      if (!brute || (c - blocked).norm() < (*brute - blocked).norm()) brute = c;
+    }
+  }
+  const std::optional<Eigen::Vector2d> found = nearest_traversable(grid, blocked, 1.0, UnknownCells::kOccupied);
+  ASSERT_TRUE(found && brute);
+  EXPECT_NEAR((*found - blocked).norm(), (*brute - blocked).norm(), 1e-9);
+  // None within a radius smaller than the distance to the nearest one, nor for a non-finite point.
+  EXPECT_FALSE(nearest_traversable(grid, blocked, 0.5 * (*brute - blocked).norm(), UnknownCells::kOccupied));
+  EXPECT_FALSE(nearest_traversable(grid, {std::nan(""), 0.0}, 1.0, UnknownCells::kOccupied));
+}
+
 TEST(OccupancyGrid, NonFinitePointsAreSkipped) {
   core::PointCloud cloud = room(2.0, 2.0);
   cloud.push_back(Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f));

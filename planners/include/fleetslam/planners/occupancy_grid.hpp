@@ -119,6 +119,9 @@ class OccupancyGrid {
 
   // Marks every cell whose centre lies within a disk as occupied and recomputes the clearances.
   void block(const std::vector<Disk>& disks_world);
+  // Marks the unknown cells whose centre lies within a disk as free (occupied cells stay) and recomputes
+  // the clearances: the footprint a robot has driven over is free even where its camera never saw the floor.
+  void mark_free(const std::vector<Disk>& disks_world);
 
   const Config& config() const { return config_; }
   const OccupancyGridStats& stats() const { return stats_; }
@@ -155,6 +158,8 @@ class OccupancyGrid {
 
  private:
   void recompute_clearances();
+  template <class Fn>
+  void for_cells_in(const std::vector<Disk>& disks_world, Fn&& fn);
 
   Config config_;
   OccupancyGridStats stats_;
@@ -165,5 +170,10 @@ class OccupancyGrid {
   std::vector<float> clearance_occupied_m_;  // to occupied cells
   std::vector<float> clearance_blocked_m_;   // to occupied or unknown cells
 };
+
+// The traversable cell centre nearest p_world within radius_m (p_world itself when it is traversable), or
+// nullopt: where a robot whose inflated footprint touches an obstacle can start a plan from.
+std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
+                                                   double radius_m, UnknownCells unknown);
 
 }  // namespace fleetslam::planners

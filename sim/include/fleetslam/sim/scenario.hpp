@@ -161,4 +161,9 @@ struct ScenarioConfig {
 // at least one robot, waypoints fit the robot type). Throws InputError naming file:key.
 ScenarioConfig load_scenario(const std::filesystem::path& file);
 
+// The checks of load_scenario for a scenario read as part of a larger file (the runner's scenario, which
+// adds the agent, central, planner, mission and criteria sections): sets base_dir to the file's folder,
+// derives robot seeds, and throws InputError naming file:key.
+void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& file);
+
 }  // namespace fleetslam::sim

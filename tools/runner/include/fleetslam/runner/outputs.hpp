@@ -1,0 +1,19 @@
+#pragma once
+// Writing a run's outputs: text files with a clear error, and the JSON forms of what the agents report.
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "fleetslam/slam/loop_closing.hpp"
+
+namespace fleetslam::runner {
+
+// Writes `text` to `path` (truncating); InputError naming the file when that fails.
+void write_text_file(const std::filesystem::path& path, const std::string& text);
+
+// A loop closure as metrics.json reports it: keyframes, time, score, matches, the correction's size.
+nlohmann::json loop_event_json(const slam::LoopEvent& event);
+
+}  // namespace fleetslam::runner

@@ -1,0 +1,125 @@
+#pragma once
+// The scenario file of `fleetslam run`: the simulated world (sim::ScenarioConfig's keys at the top level:
+// scene, duration_s, seed, robots) plus the sections that make it a closed-loop test:
+//
+//   agent:    slam::AgentConfig for every robot's agent
+//   central:  central::ServerConfig (map merging, trajectory fusion)
+//   planner:  {grid: OccupancyGridConfig, path: PathPlannerConfig, deconfliction: ..., assignment: ...}
+//   mission:  what the robots do (scripted waypoints, planned waypoints, or frontier exploration)
+//   criteria: pass criteria; the run fails (exit 1) when one does not hold
+//
+// Read with core::ConfigReader: unknown keys and bad values are errors naming file:key.
+
+#include <filesystem>
+
+#include "fleetslam/central/server.hpp"
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/planners/deconfliction.hpp"
+#include "fleetslam/planners/goal_assignment.hpp"
+#include "fleetslam/planners/occupancy_grid.hpp"
+#include "fleetslam/planners/planner.hpp"
+#include "fleetslam/sim/scenario.hpp"
+#include "fleetslam/slam/agent.hpp"
+
+namespace fleetslam::runner {
+
+// scripted:  ground robots follow their scenario waypoints directly (no planning; the maps are still
+//            judged, and coverage is reported).
+// waypoints: the central unit plans each ground robot's path to its next scenario waypoint on the fused
+//            map (OMPL), with deconfliction, and replans when the map changes or the path is blocked.
+// explore:   the central unit assigns frontiers of the fused map to the ground robots and plans to them
+//            until no frontier is left or the scenario time is over.
+// Free rigs always follow their timed knots.
+enum class MissionKind { kScripted, kWaypoints, kExplore };
+
+struct MissionConfig {
+  MissionKind kind = MissionKind::kScripted;
+  double first_plan_s = 0.5;        // simulated time of the first plan (ground robots stand until then)
+  double replan_period_s = 2.0;     // the fused map is rebuilt and paths are checked this often
+  double min_replan_interval_s = 0.5;  // a robot that finished its path triggers a plan no sooner than this
+  double goal_reached_m = 0.25;     // the estimated position this close to a goal: reached
+  int max_plan_failures = 3;        // failed plans for one goal before it is given up (reported)
+  double footprint_free_radius_m = 0.25;  // disks around the robot's past positions count as free floor
+  double start_snap_radius_m = 0.5;  // a start inside the inflated obstacles moves to the nearest free cell
+  double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
+
+  template <class V>
+  void visit(V& v) {
+    v.choice("kind", kind,
+             {{"scripted", MissionKind::kScripted}, {"waypoints", MissionKind::kWaypoints}, {"explore", MissionKind::kExplore}});
+    v("first_plan_s", first_plan_s, core::Limits<double>{0.0, 1e6});
+    v("replan_period_s", replan_period_s, core::Limits<double>{0.05, 1e6});
+    v("min_replan_interval_s", min_replan_interval_s, core::Limits<double>{0.0, 1e6});
+    v("goal_reached_m", goal_reached_m, core::Limits<double>{0.01, 100.0});
+    v("max_plan_failures", max_plan_failures, core::Limits<int>{1, 1000});
+    v("footprint_free_radius_m", footprint_free_radius_m, core::Limits<double>{0.0, 10.0});
+    v("start_snap_radius_m", start_snap_radius_m, core::Limits<double>{0.0, 10.0});
+    v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
+  }
+};
+
+struct PlanningConfig {
+  planners::OccupancyGridConfig grid;
+  planners::PathPlannerConfig path;
+  planners::DeconflictionConfig deconfliction;
+  planners::GoalAssignmentConfig assignment;
+
+  template <class V>
+  void visit(V& v) {
+    v("grid", grid);
+    v("path", path);
+    v("deconfliction", deconfliction);
+    v("assignment", assignment);
+  }
+};
+
+// Pass criteria. A negative limit (the default) switches a numeric criterion off.
+struct CriteriaConfig {
+  double max_ate_m = -1.0;               // every robot: RMSE of its fused world trajectory against truth
+  double max_map_accuracy_mean_m = -1.0;  // merged map: mean distance to the true surfaces
+  double max_map_accuracy_p95_m = -1.0;
+  double min_map_completeness = -1.0;     // share of the true surfaces within 5 cm of the merged map
+  double min_coverage = -1.0;             // share of the reachable free floor seen free in the fused map
+  double min_real_time_factor = -1.0;
+  double max_lost_share = -1.0;           // every robot: share of its frames without a pose
+  bool no_collisions = false;             // no robot touches the scene or another robot
+  bool goals_reached = false;             // planned missions: every goal of every ground robot reached
+
+  template <class V>
+  void visit(V& v) {
+    const core::Limits<double> any{-1.0, 1e9};
+    v("max_ate_m", max_ate_m, any);
+    v("max_map_accuracy_mean_m", max_map_accuracy_mean_m, any);
+    v("max_map_accuracy_p95_m", max_map_accuracy_p95_m, any);
+    v("min_map_completeness", min_map_completeness, any);
+    v("min_coverage", min_coverage, any);
+    v("min_real_time_factor", min_real_time_factor, any);
+    v("max_lost_share", max_lost_share, any);
+    v("no_collisions", no_collisions);
+    v("goals_reached", goals_reached);
+  }
+};
+
+struct RunScenarioConfig {
+  sim::ScenarioConfig world;
+  slam::AgentConfig agent;
+  central::ServerConfig central;
+  PlanningConfig planner;
+  MissionConfig mission;
+  CriteriaConfig criteria;
+
+  template <class V>
+  void visit(V& v) {
+    world.visit(v);
+    v("agent", agent);
+    v("central", central);
+    v("planner", planner);
+    v("mission", mission);
+    v("criteria", criteria);
+  }
+};
+
+// Reads a run scenario and checks its world part like sim::load_scenario. Throws InputError naming file:key.
+RunScenarioConfig load_run_scenario(const std::filesystem::path& file);
+
+}  // namespace fleetslam::runner

@@ -1,0 +1,86 @@
+// Pass criteria against a run's metrics (criteria.hpp).
+
+#include "fleetslam/runner/criteria.hpp"
+
+#include <cmath>
+#include <optional>
+#include <string>
+
+namespace fleetslam::runner {
+namespace {
+
+// metrics[path...] as a finite number, or nullopt.
+std::optional<double> number_at(const nlohmann::json& j, std::initializer_list<const char*> path) {
+  const nlohmann::json* node = &j;
+  for (const char* key : path) {
+    if (!node->is_object() || !node->contains(key)) return std::nullopt;
+    node = &(*node)[key];
+  }
+  if (!node->is_number()) return std::nullopt;
+  const double value = node->get<double>();
+  return std::isfinite(value) ? std::optional<double>(value) : std::nullopt;
+}
+
+class Verdict {
+ public:
+  void add(const std::string& name, const std::string& robot, std::optional<double> value, double limit, bool at_most,
+           std::string note = "") {
+    const bool ok = value && (at_most ? *value <= limit : *value >= limit);
+    if (!value && note.empty()) note = "not measured";
+    criteria_.push_back({{"name", name}, {"robot", robot}, {"value", value ? nlohmann::json(*value) : nlohmann::json()},
+                         {"limit", limit}, {"comparison", at_most ? "<=" : ">="}, {"passed", ok}, {"note", note}});
+    passed_ = passed_ && ok;
+  }
+  nlohmann::json json() const { return {{"passed", passed_}, {"criteria", criteria_}}; }
+
+ private:
+  nlohmann::json criteria_ = nlohmann::json::array();
+  bool passed_ = true;
+};
+
+}  // namespace
+
+nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
+  Verdict verdict;
+  const nlohmann::json robots = metrics.contains("robots") && metrics["robots"].is_array() ? metrics["robots"] : nlohmann::json::array();
+  for (const nlohmann::json& robot : robots) {
+    const std::string name = robot.value("name", std::string("?"));
+    if (c.max_ate_m >= 0.0) {
+      verdict.add("ate_world_rmse_m", name, number_at(robot, {"ate_world_m", "rmse"}), c.max_ate_m, true,
+                  robot.contains("ate_world_m") ? "" : "no estimated trajectory to judge");
+    }
+    if (c.max_lost_share >= 0.0) {
+      const std::optional<double> frames = number_at(robot, {"frames"});
+      const std::optional<double> lost = number_at(robot, {"lost"});
+      std::optional<double> share;
+      if (frames && lost && *frames > 0) share = *lost / *frames;
+      verdict.add("lost_share", name, share, c.max_lost_share, true, share ? "" : "no frames");
+    }
+    if (c.no_collisions) verdict.add("collisions", name, number_at(robot, {"collisions"}), 0.0, true);
+    if (c.goals_reached && robot.value("planned", false)) {
+      const std::optional<double> total = number_at(robot, {"goals_total"});
+      const std::optional<double> reached = number_at(robot, {"goals_reached"});
+      std::optional<double> share;
+      if (total && reached) share = *total > 0 ? *reached / *total : 1.0;
+      std::string note;
+      if (total && reached) note = std::to_string(static_cast<long>(*reached)) + " of " + std::to_string(static_cast<long>(*total));
+      verdict.add("goals_reached_share", name, share, 1.0, false, note);
+    }
+  }
+  if (c.max_map_accuracy_mean_m >= 0.0) {
+    verdict.add("map_accuracy_mean_m", "", number_at(metrics, {"merged_map_accuracy", "mean_m"}), c.max_map_accuracy_mean_m, true);
+  }
+  if (c.max_map_accuracy_p95_m >= 0.0) {
+    verdict.add("map_accuracy_p95_m", "", number_at(metrics, {"merged_map_accuracy", "p95_m"}), c.max_map_accuracy_p95_m, true);
+  }
+  if (c.min_map_completeness >= 0.0) {
+    verdict.add("map_completeness", "", number_at(metrics, {"merged_map_accuracy", "completeness"}), c.min_map_completeness, false);
+  }
+  if (c.min_coverage >= 0.0) verdict.add("coverage", "", number_at(metrics, {"coverage", "final"}), c.min_coverage, false);
+  if (c.min_real_time_factor >= 0.0) {
+    verdict.add("real_time_factor", "", number_at(metrics, {"real_time_factor"}), c.min_real_time_factor, false);
+  }
+  return verdict.json();
+}
+
+}  // namespace fleetslam::runner

@@ -1,0 +1,365 @@
+// MissionPlanner: goals, grids and deconflicted plans for the ground robots of a run (see mission.hpp).
+
+#include "fleetslam/runner/mission.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <utility>
+
+#include <spdlog/logger.h>
+
+#include "fleetslam/planners/deconfliction.hpp"
+#include "fleetslam/planners/goal_assignment.hpp"
+
+namespace fleetslam::runner {
+namespace {
+
+using planners::Pose2d;
+
+std::string format_s(double t_s) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.2f s", t_s);
+  return buffer;
+}
+
+// At most max_points of a path, evenly spread, ends kept.
+std::vector<Eigen::Vector2d> thinned(const std::vector<Pose2d>& path, std::size_t max_points) {
+  std::vector<Eigen::Vector2d> out;
+  if (path.empty()) return out;
+  const std::size_t step = std::max<std::size_t>(1, (path.size() + max_points - 1) / max_points);
+  for (std::size_t i = 0; i < path.size(); i += step) out.push_back(path[i].xy());
+  if ((path.size() - 1) % step != 0) out.push_back(path.back().xy());
+  return out;
+}
+
+std::vector<Eigen::Vector2d> xy_of(const std::vector<Pose2d>& path) {
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(path.size());
+  for (const Pose2d& p : path) out.push_back(p.xy());
+  return out;
+}
+
+// Index of the path pose nearest p.
+std::size_t nearest_pose(const std::vector<Pose2d>& path, const Eigen::Vector2d& p) {
+  std::size_t best = 0;
+  double best_m = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const double d = (path[i].xy() - p).norm();
+    if (d < best_m) {
+      best_m = d;
+      best = i;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+MissionPlanner::MissionPlanner(const MissionConfig& mission, const PlanningConfig& planning, std::vector<MissionRobot> robots,
+                               core::Logger logger)
+    : mission_(mission),
+      planning_(planning),
+      robots_(std::move(robots)),
+      logger_(logger ? std::move(logger) : core::null_logger()),
+      grid_(planning.grid),
+      state_(robots_.size()),
+      reports_(robots_.size()) {
+  // Constructing the planners checks their configs before the run starts.
+  planners::PathPlanner check_path(planning_.path);
+  planners::Deconflicter check_deconfliction(planning_.deconfliction, planning_.path);
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    MissionRobotReport& report = reports_[r];
+    if (!robots_[r].ground) {
+      report.status = "follows its own trajectory";
+    } else if (mission_.kind == MissionKind::kScripted) {
+      report.status = "follows its scenario waypoints";
+    } else if (mission_.kind == MissionKind::kWaypoints) {
+      report.goals_total = static_cast<int>(robots_[r].waypoints_world.size());
+    }
+  }
+}
+
+void MissionPlanner::event(std::size_t robot, double t_s, const std::string& what) {
+  reports_[robot].events.push_back(format_s(t_s) + ": " + what);
+  logger_->info("mission: {} at {}: {}", robots_[robot].name, format_s(t_s), what);
+}
+
+bool MissionPlanner::wants_plan(std::size_t robot) const {
+  if (!planned() || robot >= robots_.size() || !robots_[robot].ground) return false;
+  const RobotMission& s = state_[robot];
+  if (s.goal_world) return true;
+  if (mission_.kind == MissionKind::kWaypoints) return s.next_waypoint < robots_[robot].waypoints_world.size();
+  return !s.exhausted;
+}
+
+void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots) {
+  planners::OccupancyGridConfig config = planning_.grid;
+  if (config.bounds_xy_m.empty()) {
+    // The map's extent, the robots and their goals, padded: a robot can plan out of what it has seen.
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d hi = -lo;
+    auto grow = [&](const Eigen::Vector2d& p) {
+      if (!p.allFinite()) return;
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    };
+    for (std::size_t i = 0; i < map_world.size(); ++i) grow(map_world.points[i].head<2>().cast<double>());
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      for (const Eigen::Vector2d& p : robots[r].footprint_world) grow(p);
+      grow(robots[r].pose_world.xy());
+      if (mission_.kind == MissionKind::kWaypoints) {
+        for (const Eigen::Vector2d& p : robots_[r].waypoints_world) grow(p);
+      }
+    }
+    if (lo.allFinite() && hi.allFinite()) {
+      config.bounds_xy_m = {lo.x() - config.margin_m, lo.y() - config.margin_m, hi.x() + config.margin_m,
+                            hi.y() + config.margin_m};
+    }
+  }
+  grid_ = planners::OccupancyGrid(config);
+  if (config.bounds_xy_m.empty()) return;  // nothing seen and no robot: an empty grid
+  grid_.update(map_world);
+  std::vector<planners::Disk> driven;
+  for (const RobotObservation& robot : robots) {
+    for (const Eigen::Vector2d& p : robot.footprint_world) driven.push_back({p, mission_.footprint_free_radius_m});
+  }
+  if (mission_.footprint_free_radius_m > 0.0) grid_.mark_free(driven);
+}
+
+void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::string& why) {
+  RobotMission& s = state_[robot];
+  MissionRobotReport& report = reports_[robot];
+  ++report.goals_given_up;
+  char what[160];
+  std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) given up: %s", s.goal_world->x(), s.goal_world->y(), why.c_str());
+  event(robot, t_s, what);
+  if (mission_.kind == MissionKind::kExplore) abandoned_goals_world_.push_back(*s.goal_world);
+  if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
+  s.goal_world.reset();
+  s.failures_for_goal = 0;
+}
+
+void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan) {
+  const std::vector<planners::Frontier> frontiers =
+      mission_.kind == MissionKind::kExplore ? grid_.frontiers() : std::vector<planners::Frontier>{};
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (!robots_[r].ground) continue;
+    RobotMission& s = state_[r];
+    MissionRobotReport& report = reports_[r];
+    const RobotObservation& seen = robots[r];
+    if (!seen.tracking) {
+      if (!s.stopped_lost) {
+        s.stopped_lost = true;
+        event(r, t_s, "tracking lost: stopped until its agent relocalises");
+      }
+      report.status = "tracking lost: stopped";
+      continue;
+    }
+    if (s.stopped_lost) {
+      s.stopped_lost = false;
+      s.has_path = false;
+      event(r, t_s, "tracking back: planning again");
+    }
+    const Eigen::Vector2d position = seen.pose_world.xy();
+    if (s.goal_world && (position - *s.goal_world).norm() <= mission_.goal_reached_m) {
+      ++report.goals_reached;
+      char what[96];
+      std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached", s.goal_world->x(), s.goal_world->y());
+      event(r, t_s, what);
+      if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
+      s.goal_world.reset();
+      s.failures_for_goal = 0;
+      s.has_path = false;
+    }
+    if (s.goal_world && mission_.kind == MissionKind::kExplore) {
+      // The frontier it was sent to has been seen (by it or another robot): a new one.
+      bool frontier_left = false;
+      for (const planners::Frontier& f : frontiers) {
+        for (const planners::CellIndex& c : f.cells) {
+          if ((grid_.center_of(c) - *s.goal_world).norm() <= mission_.explore_goal_valid_m) {
+            frontier_left = true;
+            break;
+          }
+        }
+        if (frontier_left) break;
+      }
+      if (!frontier_left) {
+        ++report.goals_reached;
+        event(r, t_s, "its frontier has been explored");
+        s.goal_world.reset();
+        s.failures_for_goal = 0;
+        s.has_path = false;
+      }
+    }
+    if (!s.goal_world && mission_.kind == MissionKind::kWaypoints && s.next_waypoint < robots_[r].waypoints_world.size()) {
+      s.goal_world = robots_[r].waypoints_world[s.next_waypoint];
+      s.has_path = false;
+    }
+    if (s.goal_world && (!s.has_path || seen.path_done || path_blocked(r, seen))) needs_plan[r] = true;
+  }
+}
+
+void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan) {
+  std::vector<std::size_t> idle;
+  std::vector<Eigen::Vector2d> idle_positions;
+  std::vector<Eigen::Vector2d> taken;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (!robots_[r].ground) continue;
+    if (state_[r].goal_world) {
+      taken.push_back(*state_[r].goal_world);
+    } else if (robots[r].tracking) {
+      idle.push_back(r);
+      idle_positions.push_back(robots[r].pose_world.xy());
+    }
+  }
+  if (idle.empty()) return;
+  std::vector<Eigen::Vector2d> goals;
+  for (const Eigen::Vector2d& g : planners::frontier_goals(grid_.frontiers())) {
+    bool free_goal = true;
+    for (const Eigen::Vector2d& t : taken) free_goal = free_goal && (g - t).norm() > planning_.assignment.separation_m;
+    for (const Eigen::Vector2d& a : abandoned_goals_world_) free_goal = free_goal && (g - a).norm() > mission_.goal_reached_m;
+    if (free_goal) goals.push_back(g);
+  }
+  const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &grid_);
+  for (std::size_t i = 0; i < idle.size(); ++i) {
+    const std::size_t r = idle[i];
+    RobotMission& s = state_[r];
+    const int g = assignment.goal_of_robot[i];
+    if (g < 0) {
+      if (!s.exhausted) event(r, t_s, "no reachable frontier left");
+      s.exhausted = true;
+      reports_[r].status = "no reachable frontier left";
+      continue;
+    }
+    s.exhausted = false;
+    s.goal_world = goals[static_cast<std::size_t>(g)];
+    s.failures_for_goal = 0;
+    s.has_path = false;
+    ++reports_[r].goals_total;
+    char what[96];
+    std::snprintf(what, sizeof(what), "frontier (%.2f, %.2f) assigned", s.goal_world->x(), s.goal_world->y());
+    event(r, t_s, what);
+    needs_plan[r] = true;
+  }
+}
+
+bool MissionPlanner::path_blocked(std::size_t robot, const RobotObservation& observation) const {
+  const RobotMission& s = state_[robot];
+  if (!s.has_path || s.path_world.empty()) return false;
+  // The rest of the path, beyond the stretch next to the robot (a robot brushing past an inflated wall
+  // is not a blocked path).
+  std::size_t from = nearest_pose(s.path_world, observation.pose_world.xy());
+  while (from < s.path_world.size() &&
+         (s.path_world[from].xy() - observation.pose_world.xy()).norm() < mission_.start_snap_radius_m) {
+    ++from;
+  }
+  if (from >= s.path_world.size()) return false;
+  const std::vector<Pose2d> rest(s.path_world.begin() + static_cast<std::ptrdiff_t>(from), s.path_world.end());
+  return planners::first_blocked_pose(grid_, rest, planning_.path.unknown_cells) >= 0;
+}
+
+void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robots, std::vector<PathCommand>& commands) {
+  // Robots without a goal (or stopped) are obstacles for the others.
+  planners::OccupancyGrid grid = grid_;
+  std::vector<planners::Disk> standing;
+  std::vector<std::size_t> order;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    const bool moving = robots_[r].ground && robots[r].tracking && state_[r].goal_world;
+    if (moving) {
+      order.push_back(r);
+    } else {
+      standing.push_back({robots[r].pose_world.xy(), planning_.deconfliction.separation_m});
+    }
+  }
+  if (!standing.empty()) grid.block(standing);
+  std::vector<planners::RobotQuery> queries;
+  std::vector<std::size_t> queried;
+  for (std::size_t r : order) {
+    RobotMission& s = state_[r];
+    const std::optional<Eigen::Vector2d> start =
+        planners::nearest_traversable(grid, robots[r].pose_world.xy(), mission_.start_snap_radius_m, planning_.path.unknown_cells);
+    if (!start) {
+      ++reports_[r].plan_failures;
+      reports_[r].plan_log.push_back({t_s, "start_invalid", *s.goal_world, {}});
+      reports_[r].status = "boxed in: no free cell near it";
+      if (++s.failures_for_goal >= mission_.max_plan_failures) give_up_goal(t_s, r, "the robot is boxed in");
+      commands.push_back({r, {}});
+      s.has_path = false;
+      continue;
+    }
+    Pose2d pose = robots[r].pose_world;
+    pose.x_m = start->x();
+    pose.y_m = start->y();
+    queries.push_back({static_cast<int>(r), pose, *s.goal_world});
+    queried.push_back(r);
+  }
+  if (queries.empty()) return;
+  const planners::Deconflicter deconflicter(planning_.deconfliction, planning_.path, logger_);
+  const planners::DeconflictionResult result = deconflicter.plan(grid, queries);
+  for (std::size_t q = 0; q < queried.size(); ++q) {
+    const std::size_t r = queried[q];
+    RobotMission& s = state_[r];
+    MissionRobotReport& report = reports_[r];
+    const planners::PlanResult& plan = result.plans[q];
+    report.plan_log.push_back({t_s, planners::to_string(plan.status), *s.goal_world, thinned(plan.path_world, 60)});
+    const bool usable = plan.status == planners::PlanStatus::kSolved ||
+                        (plan.status == planners::PlanStatus::kApproximate && !plan.path_world.empty());
+    if (usable) {
+      ++report.plans;
+      if (!plan.solved()) ++report.plan_failures;
+      if (!plan.solved() && ++s.failures_for_goal >= mission_.max_plan_failures) {
+        give_up_goal(t_s, r, "only approximate paths");
+        commands.push_back({r, {}});
+        s.has_path = false;
+        continue;
+      }
+      s.path_world = plan.path_world;
+      s.has_path = true;
+      commands.push_back({r, xy_of(plan.path_world)});
+      char status[96];
+      std::snprintf(status, sizeof(status), "to (%.2f, %.2f), %.1f m path", s.goal_world->x(), s.goal_world->y(), plan.length_m);
+      report.status = status;
+      continue;
+    }
+    ++report.plan_failures;
+    report.status = std::string("no path to its goal (") + planners::to_string(plan.status) + ")";
+    s.has_path = false;
+    commands.push_back({r, {}});
+    if (++s.failures_for_goal >= mission_.max_plan_failures) {
+      give_up_goal(t_s, r, std::string("no path (") + planners::to_string(plan.status) + ")");
+    }
+  }
+  for (const planners::Conflict& c : result.conflicts) {
+    event(static_cast<std::size_t>(c.robot_b), t_s,
+          "path conflict with " + robots_[static_cast<std::size_t>(c.robot_a)].name + " left unresolved");
+  }
+}
+
+std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointCloud& map_world,
+                                                const std::vector<RobotObservation>& robots) {
+  FLEETSLAM_CHECK(robots.size() == robots_.size(), "one observation per robot");
+  rebuild_grid(map_world, robots);
+  std::vector<PathCommand> commands;
+  if (!planned()) return commands;
+  std::vector<bool> needs_plan(robots_.size(), false);
+  update_goals(t_s, robots, needs_plan);
+  if (mission_.kind == MissionKind::kExplore) assign_frontiers(t_s, robots, needs_plan);
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (!robots_[r].ground) continue;
+    const RobotMission& s = state_[r];
+    if (!robots[r].tracking && s.has_path) {
+      commands.push_back({r, {}});
+      state_[r].has_path = false;
+    }
+    if (!s.goal_world && robots[r].tracking && mission_.kind == MissionKind::kWaypoints &&
+        s.next_waypoint >= robots_[r].waypoints_world.size()) {
+      reports_[r].status = reports_[r].goals_given_up > 0 ? "mission over, some goals given up" : "all goals reached";
+    }
+  }
+  if (std::find(needs_plan.begin(), needs_plan.end(), true) != needs_plan.end()) plan(t_s, robots, commands);
+  return commands;
+}
+
+}  // namespace fleetslam::runner

@@ -1,0 +1,27 @@
+// Writing a run's outputs (outputs.hpp).
+
+#include "fleetslam/runner/outputs.hpp"
+
+#include <fstream>
+
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
+
+namespace fleetslam::runner {
+
+void write_text_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) throw InputError(path.string(), "cannot open the file for writing");
+  file << text;
+  if (!file.flush()) throw InputError(path.string(), "write failed");
+}
+
+nlohmann::json loop_event_json(const slam::LoopEvent& e) {
+  return {{"t_s", core::ns_to_seconds(e.t_ns)}, {"keyframe", e.current}, {"loop_keyframe", e.loop}, {"score", e.score},
+          {"bow_matches", e.bow_matches}, {"ransac_inliers", e.ransac_inliers}, {"inliers", e.inliers},
+          {"fused_points", e.fused_points}, {"moved_keyframes", e.moved_keyframes}, {"global_ba", e.global_ba},
+          {"correction_m", e.correction.translation().norm()},
+          {"correction_deg", core::rotation_angle_rad(e.correction.linear()) * 180.0 / 3.14159265358979323846}};
+}
+
+}  // namespace fleetslam::runner
