@@ -58,7 +58,7 @@ TEST(OccupancyGrid, MarksFloorWallsAndBox) {
   std::size_t box_cells = 0;
   for (int y = 0; y < grid.height(); ++y) {
     for (int x = 0; x < grid.width(); ++x) {
-      const Eigen::Vector2d c = grid.center_of({x, y});
+      const Eigen::Vector2d c = grid.center_of(CellIndex{x, y});
       const bool in_box = c.x() > 1.5 && c.x() < 2.0 && c.y() > 1.5 && c.y() < 2.0;
       const bool in_room = c.x() > 0.05 && c.x() < 3.95 && c.y() > 0.05 && c.y() < 3.95;
       if (in_box) {
@@ -100,7 +100,7 @@ TEST(OccupancyGrid, InflationMatchesBruteForceClearance) {
   }
   for (int y = 0; y < grid.height(); y += 7) {
     for (int x = 0; x < grid.width(); x += 3) {
-      const Eigen::Vector2d c = grid.center_of({x, y});
+      const Eigen::Vector2d c = grid.center_of(CellIndex{x, y});
       double d_occ = std::numeric_limits<double>::infinity(), d_blk = d_occ;
       for (const auto& o : occupied) d_occ = std::min(d_occ, (o - c).norm());
       for (const auto& o : blocked) d_blk = std::min(d_blk, (o - c).norm());
@@ -246,8 +246,8 @@ TEST(OccupancyGrid, NearestTraversableMatchesBruteForce) {
   std::optional<Eigen::Vector2d> brute;
   for (int y = 0; y < 20; ++y) {
     for (int x = 0; x < 40; ++x) {
-      const Eigen::Vector2d c = grid.center_of({x, y});
-      if (!grid.traversable({x, y}, UnknownCells::kOccupied)) continue;
+      const Eigen::Vector2d c = grid.center_of(CellIndex{x, y});
+      if (!grid.traversable(CellIndex{x, y}, UnknownCells::kOccupied)) continue;
       if (!brute || (c - blocked).norm() < (*brute - blocked).norm()) brute = c;
     }
   }

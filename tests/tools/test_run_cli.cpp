@@ -54,11 +54,35 @@ TEST(RunCli, TwoRobotOfficeRunIsJudgedAgainstTruth) {
   EXPECT_NEAR(metrics["robots"][1]["prior_error"]["translation_m"].get<double>(), 0.1, 1e-6);
   EXPECT_GT(metrics["merged_map_accuracy"]["completeness"].get<double>(), 0.0);
   EXPECT_GT(metrics["real_time_factor"].get<double>(), 0.0);
-  for (const char* file : {"scenario.yaml", "agent_config.yaml", "central_config.yaml", "merged_map.ply", "merge.json",
-                           "alpha/map.ply", "alpha/trajectory.txt", "alpha/groundtruth.txt", "bravo/trajectory.txt"}) {
+  // A scripted run with no criteria passes; the verdict says so.
+  EXPECT_TRUE(metrics["verdict"]["passed"].get<bool>()) << metrics["verdict"].dump();
+  EXPECT_TRUE(metrics["verdict"]["criteria"].empty());
+  EXPECT_EQ(metrics["mission"], "scripted");
+  for (const char* file : {"scenario.yaml", "merged_map.ply", "merge.json", "metrics.json", "mission.json", "run.log",
+                           "report.html", "occupancy.pgm", "alpha/map.ply", "alpha/trajectory.txt", "alpha/groundtruth.txt",
+                           "bravo/trajectory.txt"}) {
     EXPECT_TRUE(fs::exists(out / file)) << file;
   }
   EXPECT_EQ(core::read_trajectory(out / "bravo" / "groundtruth.txt").size(), 90u);
+}
+
+// A criterion that cannot hold fails the run: exit 1, one line naming it, and the verdict in the outputs.
+TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
+  const fs::path dir = test_dir();
+  // The scene path is relative to the scenario file: point at the real one.
+  std::string scenario = read_text(kOffice);
+  const std::string scene_key = "scene: office.xml";
+  scenario.replace(scenario.find(scene_key), scene_key.size(), "scene: '" + (kOffice.parent_path() / "office.xml").string() + "'");
+  std::ofstream(dir / "strict.yaml") << scenario << "criteria:\n  max_ate_m: 0.0\n  min_real_time_factor: 1000\n";
+  const fs::path out = dir / "run";
+  const RunResult r = run("-q run '" + (dir / "strict.yaml").string() + "' --duration 1 --out '" + out.string() + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("failed its pass criteria: ate_world_rmse_m (alpha)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("real_time_factor"), std::string::npos) << r.output;
+  const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
+  EXPECT_FALSE(metrics["verdict"]["passed"].get<bool>());
+  EXPECT_EQ(metrics["verdict"]["criteria"].size(), 3u);  // ATE for each robot and the real-time factor
+  EXPECT_NE(read_text(out / "report.html").find("FAIL"), std::string::npos);
 }
 
 TEST(RunCli, BadInputEndsWithOneClearLine) {
@@ -73,6 +97,15 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
           (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no_such_key"), std::string::npos) << r.output;
+  // Run sections are checked like the rest: unknown keys and bad choices name file:key.
+  std::ofstream(dir / "mission.yaml") << read_text(kOffice) << "mission:\n  kind: wander\n";
+  r = run("run '" + (dir / "mission.yaml").string() + "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("mission.kind"), std::string::npos) << r.output;
+  std::ofstream(dir / "criteria.yaml") << read_text(kOffice) << "criteria:\n  max_ate: 0.1\n";
+  r = run("run '" + (dir / "criteria.yaml").string() + "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("max_ate"), std::string::npos) << r.output;
   std::ofstream(dir / "bad.fsvoc", std::ios::binary) << "not a vocabulary";
   r = run("-q run '" + kOffice.string() + "' --vocabulary '" + (dir / "bad.fsvoc").string() + "' --out '" +
           (dir / "run").string() + "'");
