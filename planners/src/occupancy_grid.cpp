@@ -209,9 +209,9 @@ void OccupancyGrid::block(const std::vector<Disk>& disks_world) {
   recompute_clearances();
 }
 
-void OccupancyGrid::mark_free(const std::vector<Disk>& disks_world) {
-  for_cells_in(disks_world, [](CellState& state) {
-    if (state == CellState::kUnknown) state = CellState::kFree;
+void OccupancyGrid::mark_free(const std::vector<Disk>& disks_world, bool clear_occupied) {
+  for_cells_in(disks_world, [clear_occupied](CellState& state) {
+    if (state == CellState::kUnknown || clear_occupied) state = CellState::kFree;
   });
   recompute_clearances();
 }
@@ -292,6 +292,32 @@ bool OccupancyGrid::traversable(const Eigen::Vector2d& p_world, UnknownCells unk
   return cell && traversable(*cell, unknown);
 }
 
+void OccupancyGrid::place_frontier_goal(Frontier& frontier) const {
+  const double search_m = config_.frontier_goal_search_m;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  for (const CellIndex& c : frontier.cells) sum += center_of(c);
+  frontier.centroid_world = sum / static_cast<double>(frontier.size());
+  // Goal: the conservative-traversable cell nearest the centroid (first in scan order on ties).
+  const int r = static_cast<int>(std::ceil(search_m / config_.resolution_m));
+  const std::optional<CellIndex> cc = cell_of(frontier.centroid_world);
+  double best = kInf;
+  if (cc) {
+    for (int gy = cc->y - r; gy <= cc->y + r; ++gy) {
+      for (int gx = cc->x - r; gx <= cc->x + r; ++gx) {
+        const CellIndex g{gx, gy};
+        if (!traversable(g, UnknownCells::kOccupied)) continue;
+        const double d = (center_of(g) - frontier.centroid_world).norm();
+        if (d <= search_m && d < best) {
+          best = d;
+          frontier.goal_world = center_of(g);
+          frontier.has_goal = true;
+        }
+      }
+    }
+  }
+  if (!frontier.has_goal) frontier.goal_world = frontier.centroid_world;
+}
+
 std::vector<Frontier> OccupancyGrid::frontiers() const {
   const auto is_frontier = [this](const CellIndex& c) {
     if (state(c) != CellState::kFree) return false;
@@ -303,7 +329,6 @@ std::vector<Frontier> OccupancyGrid::frontiers() const {
   };
   std::vector<std::uint8_t> visited(cells_.size(), 0);
   std::vector<Frontier> result;
-  const double search_m = config_.frontier_goal_search_m;
   for (int y = 0; y < height_; ++y) {
     for (int x = 0; x < width_; ++x) {
       const CellIndex seed{x, y};
@@ -326,29 +351,21 @@ std::vector<Frontier> OccupancyGrid::frontiers() const {
         }
       }
       if (static_cast<int>(frontier.size()) < config_.min_frontier_cells) continue;
-      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-      for (const CellIndex& c : frontier.cells) sum += center_of(c);
-      frontier.centroid_world = sum / static_cast<double>(frontier.size());
-      // Goal: the conservative-traversable cell nearest the centroid (first in scan order on ties).
-      const int r = static_cast<int>(std::ceil(search_m / config_.resolution_m));
-      const std::optional<CellIndex> cc = cell_of(frontier.centroid_world);
-      double best = kInf;
-      if (cc) {
-        for (int gy = cc->y - r; gy <= cc->y + r; ++gy) {
-          for (int gx = cc->x - r; gx <= cc->x + r; ++gx) {
-            const CellIndex g{gx, gy};
-            if (!traversable(g, UnknownCells::kOccupied)) continue;
-            const double d = (center_of(g) - frontier.centroid_world).norm();
-            if (d <= search_m && d < best) {
-              best = d;
-              frontier.goal_world = center_of(g);
-              frontier.has_goal = true;
-            }
-          }
-        }
+      // A long frontier (the whole rim of the seen floor is often one cluster, its centroid in the middle
+      // of the floor) is cut into pieces of consecutive cells in breadth-first order, each with its goal.
+      const std::size_t piece = config_.max_frontier_cells > 0 ? static_cast<std::size_t>(config_.max_frontier_cells)
+                                                                : frontier.size();
+      const std::size_t pieces = (frontier.size() + piece - 1) / piece;
+      for (std::size_t p = 0; p < pieces; ++p) {
+        Frontier part;
+        // Even pieces (no tiny remainder): piece p takes cells [p * n / pieces, (p + 1) * n / pieces).
+        const std::size_t begin = p * frontier.size() / pieces;
+        const std::size_t end = (p + 1) * frontier.size() / pieces;
+        part.cells.assign(frontier.cells.begin() + static_cast<std::ptrdiff_t>(begin),
+                          frontier.cells.begin() + static_cast<std::ptrdiff_t>(end));
+        place_frontier_goal(part);
+        result.push_back(std::move(part));
       }
-      if (!frontier.has_goal) frontier.goal_world = frontier.centroid_world;
-      result.push_back(std::move(frontier));
     }
   }
   return result;

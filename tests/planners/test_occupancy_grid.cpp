@@ -1,6 +1,7 @@
 // OccupancyGrid: cell states from a synthetic cloud, inflation against a brute-force oracle, frontiers,
 // rebuilding, conversions and bad input.
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -130,6 +131,7 @@ TEST(OccupancyGrid, FrontiersOfAHalfExploredRoom) {
   add_box(cloud, -0.05, 3.01, 1.99, 3.05, 0.0, 1.2);    // north wall, west half
   OccupancyGridConfig config = grid_config(0.2);
   config.bounds_xy_m = {-1.0, -1.0, 5.0, 4.0};
+  config.max_frontier_cells = 0;  // one piece
   OccupancyGrid grid(config);
   grid.update(cloud);
 
@@ -148,6 +150,29 @@ TEST(OccupancyGrid, FrontiersOfAHalfExploredRoom) {
   EXPECT_TRUE(grid.traversable(f.goal_world, UnknownCells::kOccupied));
   EXPECT_LT((f.goal_world - f.centroid_world).norm(), 0.3);
   EXPECT_LT(f.goal_world.x(), 1.9);  // the robot's radius away from the unknown half
+
+  // Cut into pieces of at most 25 cells: three even pieces, together the same cells once each, each
+  // along its own stretch of the line with a goal of its own.
+  config.max_frontier_cells = 25;
+  OccupancyGrid cut(config);
+  cut.update(cloud);
+  const std::vector<Frontier> pieces = cut.frontiers();
+  ASSERT_EQ(pieces.size(), 3u);
+  std::size_t cells = 0;
+  std::vector<std::size_t> seen;
+  for (const Frontier& piece : pieces) {
+    EXPECT_LE(piece.size(), 25u);
+    EXPECT_GE(piece.size(), 19u);
+    cells += piece.size();
+    for (const CellIndex& c : piece.cells) seen.push_back(cut.index(c));
+    EXPECT_NEAR(piece.centroid_world.x(), 1.975, 0.05);
+    ASSERT_TRUE(piece.has_goal);
+    EXPECT_LT((piece.goal_world - piece.centroid_world).norm(), 0.5);
+  }
+  EXPECT_EQ(cells, f.size());
+  std::sort(seen.begin(), seen.end());
+  EXPECT_TRUE(std::adjacent_find(seen.begin(), seen.end()) == seen.end()) << "a cell in two pieces";
+  EXPECT_GT(std::abs(pieces[0].centroid_world.y() - pieces[2].centroid_world.y()), 1.0) << "pieces cover different stretches";
 
   // Seeing the east half too leaves no frontier.
   core::PointCloud full = room(4.0, 3.0);
@@ -228,6 +253,11 @@ TEST(OccupancyGrid, MarkFreeClearsOnlyUnknownCells) {
   }
   EXPECT_EQ(grid.stats().free_cells, free);
   EXPECT_GT(free, 40u);
+  // Clearing occupied cells too (a robot drove there).
+  grid.mark_free({Disk{{1.0, 0.5}, 0.2}}, true);
+  EXPECT_EQ(grid.state(CellIndex{20, 10}), CellState::kFree);
+  EXPECT_EQ(grid.stats().free_cells, free + 1);
+  EXPECT_EQ(grid.stats().occupied_cells, 0u);
 }
 
 TEST(OccupancyGrid, NearestTraversableMatchesBruteForce) {

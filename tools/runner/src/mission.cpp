@@ -64,6 +64,7 @@ MissionPlanner::MissionPlanner(const MissionConfig& mission, const PlanningConfi
       robots_(std::move(robots)),
       logger_(logger ? std::move(logger) : core::null_logger()),
       grid_(planning.grid),
+      planning_grid_(planning.grid),
       state_(robots_.size()),
       reports_(robots_.size()) {
   // Constructing the planners checks their configs before the run starts.
@@ -119,13 +120,22 @@ void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::
     }
   }
   grid_ = planners::OccupancyGrid(config);
+  planning_grid_ = grid_;
   if (config.bounds_xy_m.empty()) return;  // nothing seen and no robot: an empty grid
   grid_.update(map_world);
   std::vector<planners::Disk> driven;
   for (const RobotObservation& robot : robots) {
     for (const Eigen::Vector2d& p : robot.footprint_world) driven.push_back({p, mission_.footprint_free_radius_m});
   }
-  if (mission_.footprint_free_radius_m > 0.0) grid_.mark_free(driven);
+  if (mission_.footprint_free_radius_m > 0.0) grid_.mark_free(driven, /*clear_occupied=*/true);
+  planning_grid_ = grid_;
+  if (mission_.blind_zone_free_radius_m > 0.0) {
+    std::vector<planners::Disk> blind;
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      if (robots_[r].ground && robots[r].tracking) blind.push_back({robots[r].pose_world.xy(), mission_.blind_zone_free_radius_m});
+    }
+    planning_grid_.mark_free(blind);
+  }
 }
 
 void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::string& why) {
@@ -143,7 +153,7 @@ void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::stri
 
 void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan) {
   const std::vector<planners::Frontier> frontiers =
-      mission_.kind == MissionKind::kExplore ? grid_.frontiers() : std::vector<planners::Frontier>{};
+      mission_.kind == MissionKind::kExplore ? planning_grid_.frontiers() : std::vector<planners::Frontier>{};
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;
     RobotMission& s = state_[r];
@@ -178,7 +188,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       bool frontier_left = false;
       for (const planners::Frontier& f : frontiers) {
         for (const planners::CellIndex& c : f.cells) {
-          if ((grid_.center_of(c) - *s.goal_world).norm() <= mission_.explore_goal_valid_m) {
+          if ((planning_grid_.center_of(c) - *s.goal_world).norm() <= mission_.explore_goal_valid_m) {
             frontier_left = true;
             break;
           }
@@ -216,13 +226,21 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   }
   if (idle.empty()) return;
   std::vector<Eigen::Vector2d> goals;
-  for (const Eigen::Vector2d& g : planners::frontier_goals(grid_.frontiers())) {
+  const std::vector<planners::Frontier> frontiers = planning_grid_.frontiers();
+  for (const Eigen::Vector2d& g : planners::frontier_goals(frontiers)) {
     bool free_goal = true;
     for (const Eigen::Vector2d& t : taken) free_goal = free_goal && (g - t).norm() > planning_.assignment.separation_m;
     for (const Eigen::Vector2d& a : abandoned_goals_world_) free_goal = free_goal && (g - a).norm() > mission_.goal_reached_m;
+    // The rim of the floor a robot stands on (its own footprint next to the unseen floor below its
+    // camera) is a frontier too, but not a place to go.
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      if (robots_[r].ground) free_goal = free_goal && (g - robots[r].pose_world.xy()).norm() >= mission_.explore_min_goal_distance_m;
+    }
     if (free_goal) goals.push_back(g);
   }
-  const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &grid_);
+  const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &planning_grid_);
+  logger_->info("mission: {:.2f} s: {} frontier(s), {} with a goal, {} worth a trip, for {} idle robot(s)", t_s,
+                frontiers.size(), planners::frontier_goals(frontiers).size(), goals.size(), idle.size());
   for (std::size_t i = 0; i < idle.size(); ++i) {
     const std::size_t r = idle[i];
     RobotMission& s = state_[r];
@@ -257,17 +275,19 @@ bool MissionPlanner::path_blocked(std::size_t robot, const RobotObservation& obs
   }
   if (from >= s.path_world.size()) return false;
   const std::vector<Pose2d> rest(s.path_world.begin() + static_cast<std::ptrdiff_t>(from), s.path_world.end());
-  return planners::first_blocked_pose(grid_, rest, planning_.path.unknown_cells) >= 0;
+  return planners::first_blocked_pose(planning_grid_, rest, planning_.path.unknown_cells) >= 0;
 }
 
-void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robots, std::vector<PathCommand>& commands) {
-  // Robots without a goal (or stopped) are obstacles for the others.
-  planners::OccupancyGrid grid = grid_;
+void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robots, const std::vector<bool>& needs_plan,
+                          std::vector<PathCommand>& commands) {
+  // The robots that need a path are deconflicted among themselves (by priority); the others (standing,
+  // or keeping a path that is still good, which a new plan would only make them turn away from) are
+  // obstacles where they are.
+  planners::OccupancyGrid grid = planning_grid_;
   std::vector<planners::Disk> standing;
   std::vector<std::size_t> order;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
-    const bool moving = robots_[r].ground && robots[r].tracking && state_[r].goal_world;
-    if (moving) {
+    if (needs_plan[r]) {
       order.push_back(r);
     } else {
       standing.push_back({robots[r].pose_world.xy(), planning_.deconfliction.separation_m});
@@ -358,7 +378,7 @@ std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointClo
       reports_[r].status = reports_[r].goals_given_up > 0 ? "mission over, some goals given up" : "all goals reached";
     }
   }
-  if (std::find(needs_plan.begin(), needs_plan.end(), true) != needs_plan.end()) plan(t_s, robots, commands);
+  if (std::find(needs_plan.begin(), needs_plan.end(), true) != needs_plan.end()) plan(t_s, robots, needs_plan, commands);
   return commands;
 }
 

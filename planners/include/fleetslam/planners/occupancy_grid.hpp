@@ -71,6 +71,7 @@ struct OccupancyGridConfig {
   double margin_m = 0.5;
   std::int64_t max_cells = 16'000'000;   // larger grids are an InputError (far outliers, a wrong unit)
   int min_frontier_cells = 5;            // smaller frontier clusters are dropped
+  int max_frontier_cells = 40;           // longer clusters are cut into pieces of about this many cells (0: never)
   double frontier_goal_search_m = 1.0;
 
   template <class V>
@@ -86,6 +87,7 @@ struct OccupancyGridConfig {
     v("margin_m", margin_m, core::Limits<double>{0.0, 1000.0});
     v("max_cells", max_cells, core::Limits<std::int64_t>{1, std::int64_t{1} << 40});
     v("min_frontier_cells", min_frontier_cells, core::Limits<int>{1, 1 << 30});
+    v("max_frontier_cells", max_frontier_cells, core::Limits<int>{0, 1 << 30});
     v("frontier_goal_search_m", frontier_goal_search_m, core::Limits<double>{0.0, 1000.0});
   }
 };
@@ -119,9 +121,11 @@ class OccupancyGrid {
 
   // Marks every cell whose centre lies within a disk as occupied and recomputes the clearances.
   void block(const std::vector<Disk>& disks_world);
-  // Marks the unknown cells whose centre lies within a disk as free (occupied cells stay) and recomputes
-  // the clearances: the footprint a robot has driven over is free even where its camera never saw the floor.
-  void mark_free(const std::vector<Disk>& disks_world);
+  // Marks the unknown cells whose centre lies within a disk as free and recomputes the clearances; with
+  // clear_occupied, occupied cells too. The floor a robot's body has driven over is free of static
+  // obstacles, even where its camera never saw the floor, and even where another robot's camera saw the
+  // robot itself standing (a robot in the map is not a wall).
+  void mark_free(const std::vector<Disk>& disks_world, bool clear_occupied = false);
 
   const Config& config() const { return config_; }
   const OccupancyGridStats& stats() const { return stats_; }
@@ -145,7 +149,8 @@ class OccupancyGrid {
   bool traversable(const CellIndex& cell, UnknownCells unknown) const;
   bool traversable(const Eigen::Vector2d& p_world, UnknownCells unknown) const;
 
-  // Frontier clusters in scan order of their first cell (deterministic).
+  // Frontier clusters in scan order of their first cell (deterministic); a cluster longer than
+  // max_frontier_cells is cut into consecutive pieces (breadth-first order) of at most that many cells.
   std::vector<Frontier> frontiers() const;
 
   // Path lengths (m) over traversable cells (8-connected, Dijkstra) from the cell of `from_world` to
@@ -158,6 +163,7 @@ class OccupancyGrid {
 
  private:
   void recompute_clearances();
+  void place_frontier_goal(Frontier& frontier) const;
   template <class Fn>
   void for_cells_in(const std::vector<Disk>& disks_world, Fn&& fn);
 

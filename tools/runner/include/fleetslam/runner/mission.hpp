@@ -7,8 +7,9 @@
 // its path): it rebuilds the grid from the fused map (the cells a robot has driven over count as free),
 // judges goals reached from the robots' *estimated* positions (the mission never sees ground truth),
 // and plans again when a robot needs a new path, its path is blocked in the new map, or it finished
-// short of its goal. All robots with goals are planned together by priority (their order) so that
-// their paths do not conflict; robots without a goal are obstacles. A goal that fails to plan
+// short of its goal. The robots that need a path are planned together by priority (their order) so that
+// their paths do not conflict; the other robots (standing, or keeping a path that is still clear) are
+// obstacles where they are. A goal that fails to plan
 // max_plan_failures times is given up and reported; a robot that lost tracking is stopped until it
 // finds its map again. Nothing here throws for a bad map or an unreachable goal: it is all in the
 // reports.
@@ -104,7 +105,8 @@ class MissionPlanner {
   void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
   void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
   bool path_blocked(std::size_t robot, const RobotObservation& observation) const;
-  void plan(double t_s, const std::vector<RobotObservation>& robots, std::vector<PathCommand>& commands);
+  void plan(double t_s, const std::vector<RobotObservation>& robots, const std::vector<bool>& needs_plan,
+            std::vector<PathCommand>& commands);
   void give_up_goal(double t_s, std::size_t robot, const std::string& why);
   void event(std::size_t robot, double t_s, const std::string& what);
 
@@ -112,7 +114,8 @@ class MissionPlanner {
   PlanningConfig planning_;
   std::vector<MissionRobot> robots_;
   core::Logger logger_;
-  planners::OccupancyGrid grid_;
+  planners::OccupancyGrid grid_;           // what the robots saw and drove over (coverage, reports)
+  planners::OccupancyGrid planning_grid_;  // grid_ with the blind zones around the robots free (planning)
   std::vector<RobotMission> state_;
   std::vector<MissionRobotReport> reports_;
   std::vector<Eigen::Vector2d> abandoned_goals_world_;  // explore: frontier goals given up

@@ -39,9 +39,17 @@ struct MissionConfig {
   double min_replan_interval_s = 0.5;  // a robot that finished its path triggers a plan no sooner than this
   double goal_reached_m = 0.25;     // the estimated position this close to a goal: reached
   int max_plan_failures = 3;        // failed plans for one goal before it is given up (reported)
-  double footprint_free_radius_m = 0.25;  // disks around the robot's past positions count as free floor
+  // Disks around the robots' past positions are free floor, even where the map has obstacles: a robot's
+  // body was there (so it is no wall), and what stood there may have been a robot seen by another.
+  // At most the robots' radius.
+  double footprint_free_radius_m = 0.18;
+  // For planning only (never for coverage): unknown floor this close to a ground robot is taken as free.
+  // A forward camera never sees the floor right in front of it (here up to about 0.7 m), so without this
+  // a robot that plans conservatively (unknown cells occupied) could not leave its start. 0: off.
+  double blind_zone_free_radius_m = 0.0;
   double start_snap_radius_m = 0.5;  // a start inside the inflated obstacles moves to the nearest free cell
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
+  double explore_min_goal_distance_m = 1.0;  // frontier goals nearer a ground robot are not worth a trip
 
   template <class V>
   void visit(V& v) {
@@ -53,8 +61,10 @@ struct MissionConfig {
     v("goal_reached_m", goal_reached_m, core::Limits<double>{0.01, 100.0});
     v("max_plan_failures", max_plan_failures, core::Limits<int>{1, 1000});
     v("footprint_free_radius_m", footprint_free_radius_m, core::Limits<double>{0.0, 10.0});
+    v("blind_zone_free_radius_m", blind_zone_free_radius_m, core::Limits<double>{0.0, 10.0});
     v("start_snap_radius_m", start_snap_radius_m, core::Limits<double>{0.0, 10.0});
     v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
+    v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
   }
 };
 
