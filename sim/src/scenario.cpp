@@ -45,7 +45,11 @@ void check_start_overlap(const std::filesystem::path& file, const ScenarioConfig
 }  // namespace
 
 ScenarioConfig load_scenario(const std::filesystem::path& file) {
-  ScenarioConfig scenario = core::load_config<ScenarioConfig>(file);
+  ScenarioConfig scenario;
+  core::ConfigReader reader = core::ConfigReader::from_file(file).section("");
+  scenario.visit(reader);
+  for (const char* key : kRunSections) reader.skip(key);
+  reader.finish();
   validate_scenario(scenario, file);
   return scenario;
 }

@@ -430,6 +430,13 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
                 .find("duplicate robot name 'a'"),
             std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nrobots: []\n").find("at least one robot"), std::string::npos);
+  // The sections of the layers above (fleetslam run) are left to them; other unknown keys are errors.
+  EXPECT_EQ(load_scenario(write("scene: scene.xml\nrobots:\n  - {name: a}\nmission: {kind: explore}\ncriteria: {x: 1}\n"
+                                "agent: {}\ncentral: {}\nplanner: {}\n"))
+                .robots.size(),
+            1u);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: a}\nmisson: {kind: explore}\n").find("misson: unknown key"),
+            std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, waypoints: [{t_s: 1}]}\n")
                 .find("at least 2 timed waypoints"),
             std::string::npos);

@@ -29,7 +29,9 @@ using RunResult = test::CliResult;
 test::CliResult run(const std::string& arguments) { return test::run_cli(arguments); }
 fs::path test_dir() { return test::fresh_test_dir("fleetslam_test_run_cli"); }
 
-const fs::path kOffice = fs::path(FLEETSLAM_SOURCE_DIR) / "scenes" / "office" / "office_2robots.yaml";
+// The office with scripted waypoints and no criteria (tests/scenarios/office_scripted.yaml).
+const fs::path kOffice = fs::path(FLEETSLAM_SOURCE_DIR) / "tests" / "scenarios" / "office_scripted.yaml";
+const fs::path kOfficeScene = fs::path(FLEETSLAM_SOURCE_DIR) / "scenes" / "office" / "office.xml";
 
 TEST(RunCli, TwoRobotOfficeRunIsJudgedAgainstTruth) {
   const fs::path out = test_dir() / "run";
@@ -71,8 +73,8 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   const fs::path dir = test_dir();
   // The scene path is relative to the scenario file: point at the real one.
   std::string scenario = read_text(kOffice);
-  const std::string scene_key = "scene: office.xml";
-  scenario.replace(scenario.find(scene_key), scene_key.size(), "scene: '" + (kOffice.parent_path() / "office.xml").string() + "'");
+  const std::string scene_key = "scene: ../../scenes/office/office.xml";
+  scenario.replace(scenario.find(scene_key), scene_key.size(), "scene: '" + kOfficeScene.string() + "'");
   std::ofstream(dir / "strict.yaml") << scenario << "criteria:\n  max_ate_m: 0.0\n  min_real_time_factor: 1000\n";
   const fs::path out = dir / "run";
   const RunResult r = run("-q run '" + (dir / "strict.yaml").string() + "' --duration 1 --out '" + out.string() + "'");

@@ -162,9 +162,9 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
     if (!seen.tracking) {
       if (!s.stopped_lost) {
         s.stopped_lost = true;
-        event(r, t_s, "tracking lost: stopped until its agent relocalises");
+        event(r, t_s, "tracking lost");
       }
-      report.status = "tracking lost: stopped";
+      report.status = "tracking lost: waiting to relocalise";
       continue;
     }
     if (s.stopped_lost) {
@@ -369,10 +369,23 @@ std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointClo
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;
     const RobotMission& s = state_[r];
-    if (!robots[r].tracking && s.has_path) {
-      commands.push_back({r, {}});
+    if (!robots[r].tracking && !s.backtracked) {
+      // Lost: drive back to where it tracked a little earlier (the controller turns it round on the
+      // spot), so that its camera sees mapped places again and its agent can relocalise; then it waits.
+      state_[r].backtracked = true;
       state_[r].has_path = false;
+      std::vector<Eigen::Vector2d> back;
+      const std::vector<Eigen::Vector2d>& trail = robots[r].footprint_world;
+      for (auto it = trail.rbegin(); it != trail.rend() && mission_.lost_backtrack_m > 0.0; ++it) {
+        if ((*it - robots[r].pose_world.xy()).norm() >= mission_.lost_backtrack_m) {
+          back.push_back(*it);
+          break;
+        }
+      }
+      commands.push_back({r, back});
+      if (!back.empty()) event(r, t_s, "tracking lost: driving back to where it last tracked");
     }
+    if (robots[r].tracking) state_[r].backtracked = false;
     if (!s.goal_world && robots[r].tracking && mission_.kind == MissionKind::kWaypoints &&
         s.next_waypoint >= robots_[r].waypoints_world.size()) {
       reports_[r].status = reports_[r].goals_given_up > 0 ? "mission over, some goals given up" : "all goals reached";

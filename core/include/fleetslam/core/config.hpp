@@ -111,6 +111,8 @@ class ConfigReader {
 
   // Throws InputError for keys present in the map that no visit asked for.
   void finish() const;
+  // Accepts `key` as known without reading it: a section that another layer reads from the same file.
+  void skip(const char* key) { mark_seen(key); }
 
   // "file" and the dotted path of this map, for messages.
   std::string where(const std::string& key) const;

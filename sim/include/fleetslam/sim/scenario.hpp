@@ -157,6 +157,10 @@ struct ScenarioConfig {
   std::filesystem::path scene_path() const { return base_dir / scene; }
 };
 
+// Sections of a scenario file that the layers above the simulator read (`fleetslam run`: the agents'
+// config, the central unit's, the planner's, the mission and the pass criteria); load_scenario skips them.
+inline constexpr const char* kRunSections[] = {"agent", "central", "planner", "mission", "criteria"};
+
 // Reads a scenario file: the typed config plus checks that need the whole (unique robot names,
 // at least one robot, waypoints fit the robot type). Throws InputError naming file:key.
 ScenarioConfig load_scenario(const std::filesystem::path& file);

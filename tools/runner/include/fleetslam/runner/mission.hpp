@@ -10,8 +10,8 @@
 // short of its goal. The robots that need a path are planned together by priority (their order) so that
 // their paths do not conflict; the other robots (standing, or keeping a path that is still clear) are
 // obstacles where they are. A goal that fails to plan
-// max_plan_failures times is given up and reported; a robot that lost tracking is stopped until it
-// finds its map again. Nothing here throws for a bad map or an unreachable goal: it is all in the
+// max_plan_failures times is given up and reported; a robot that lost tracking drives back along its
+// trail (lost_backtrack_m) and waits there until its agent relocalises. Nothing here throws for a bad map or an unreachable goal: it is all in the
 // reports.
 
 #include <cstddef>
@@ -97,6 +97,7 @@ class MissionPlanner {
     int failures_for_goal = 0;
     bool has_path = false;
     bool stopped_lost = false;
+    bool backtracked = false;  // lost: the drive back has been commanded
     bool exhausted = false;  // explore: no frontier was left for it at the last assignment
     std::vector<planners::Pose2d> path_world;
   };

@@ -48,6 +48,7 @@ struct MissionConfig {
   // a robot that plans conservatively (unknown cells occupied) could not leave its start. 0: off.
   double blind_zone_free_radius_m = 0.0;
   double start_snap_radius_m = 0.5;  // a start inside the inflated obstacles moves to the nearest free cell
+  double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
   double explore_min_goal_distance_m = 1.0;  // frontier goals nearer a ground robot are not worth a trip
 
@@ -63,6 +64,7 @@ struct MissionConfig {
     v("footprint_free_radius_m", footprint_free_radius_m, core::Limits<double>{0.0, 10.0});
     v("blind_zone_free_radius_m", blind_zone_free_radius_m, core::Limits<double>{0.0, 10.0});
     v("start_snap_radius_m", start_snap_radius_m, core::Limits<double>{0.0, 10.0});
+    v("lost_backtrack_m", lost_backtrack_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
     v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
   }
