@@ -300,7 +300,10 @@ PlanResult PathPlanner::plan(const OccupancyGrid& grid, const Pose2d& start_worl
 
   ob::ScopedState<ob::SE2StateSpace> start(space);
   start->setXY(start_world.x_m, start_world.y_m);
-  start->setYaw(start_world.yaw_rad);
+  // SO(2) bounds are [-pi, pi) in practice: a yaw of exactly pi (a robot facing -x) fails OMPL's bounds
+  // check and the start is rejected silently, so the yaw is wrapped into [-pi, pi).
+  start->setYaw(std::remainder(start_world.yaw_rad, 2.0 * kPi) >= kPi ? -kPi
+                                                                          : std::remainder(start_world.yaw_rad, 2.0 * kPi));
   auto pdef = std::make_shared<ob::ProblemDefinition>(si);
   pdef->addStartState(start);
   pdef->setGoal(std::make_shared<XyGoal>(si, result.goal_world, config_.goal_tolerance_m));

@@ -91,6 +91,16 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{PlannerAlgorithm::kRrtConnect, StateSpaceKind::kReedsShepp, "rrt_connect_reeds_shepp"}),
     [](const ::testing::TestParamInfo<Case>& case_info) { return case_info.param.name; });
 
+// A robot facing -x has a yaw of pi (atan2 gives it): any heading, wrapped or not, is a valid start.
+TEST(PathPlanner, AnyStartHeadingIsValid) {
+  const OccupancyGrid grid = make_grid(6.0, 4.0, [](const Eigen::Vector2d&) { return false; });
+  const PathPlanner planner{PathPlannerConfig{}};
+  for (const double yaw : {M_PI, -M_PI, 3.0 * M_PI, 2.0 * M_PI, -2.5 * M_PI, 0.5}) {
+    const PlanResult result = planner.plan(grid, Pose2d{5.0, 2.0, yaw}, {1.0, 2.0});
+    EXPECT_EQ(result.status, PlanStatus::kSolved) << "yaw " << yaw;
+  }
+}
+
 TEST(PathPlanner, StartAndGoalValidity) {
   const OccupancyGrid grid = make_grid(4.0, 4.0, [](const Eigen::Vector2d& c) {
     return (c - Eigen::Vector2d(2.0, 2.0)).cwiseAbs().maxCoeff() < 0.3;  // a 0.6 m box in the middle

@@ -211,7 +211,23 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
   }
 }
 
-void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan) {
+void MissionPlanner::look_around(double t_s, std::size_t robot, const RobotObservation& seen, std::vector<PathCommand>& commands) {
+  // A quarter turn further each time (left, back, right, ahead), a short step onto floor it may stand on.
+  RobotMission& s = state_[robot];
+  if (mission_.look_around_step_m <= 0.0 || s.look_arounds >= mission_.max_look_arounds) return;
+  for (int k = 0; k < 4; ++k) {
+    const double yaw = seen.pose_world.yaw_rad + 0.5 * M_PI * static_cast<double>((s.look_arounds + k) % 4 + 1);
+    const Eigen::Vector2d target = seen.pose_world.xy() + mission_.look_around_step_m * Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
+    if (!planning_grid_.traversable(target, planning_.path.unknown_cells)) continue;
+    s.look_arounds += k + 1;
+    commands.push_back({robot, {target}});
+    event(robot, t_s, "turns to look around");
+    return;
+  }
+}
+
+void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
+                                      std::vector<PathCommand>& looks) {
   std::vector<std::size_t> idle;
   std::vector<Eigen::Vector2d> idle_positions;
   std::vector<Eigen::Vector2d> taken;
@@ -221,13 +237,24 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
       taken.push_back(*state_[r].goal_world);
     } else if (robots[r].tracking) {
       idle.push_back(r);
-      idle_positions.push_back(robots[r].pose_world.xy());
+      // Where its plan would start (a robot brushing an inflated obstacle starts from the nearest free cell).
+      const std::optional<Eigen::Vector2d> start = planners::nearest_traversable(
+          planning_grid_, robots[r].pose_world.xy(), mission_.start_snap_radius_m, planning_.assignment.unknown_cells);
+      idle_positions.push_back(start ? *start : robots[r].pose_world.xy());
     }
   }
   if (idle.empty()) return;
   std::vector<Eigen::Vector2d> goals;
   const std::vector<planners::Frontier> frontiers = planning_grid_.frontiers();
-  for (const Eigen::Vector2d& g : planners::frontier_goals(frontiers)) {
+  // Each frontier's goal: the cell nearest its centroid that a robot can stand on, with unknown cells
+  // as the assignment counts them (the grid's own goals count them occupied).
+  std::vector<Eigen::Vector2d> frontier_goals;
+  for (const planners::Frontier& f : frontiers) {
+    const std::optional<Eigen::Vector2d> g = planners::nearest_traversable(
+        planning_grid_, f.centroid_world, planning_grid_.config().frontier_goal_search_m, planning_.assignment.unknown_cells);
+    if (g) frontier_goals.push_back(*g);
+  }
+  for (const Eigen::Vector2d& g : frontier_goals) {
     bool free_goal = true;
     for (const Eigen::Vector2d& t : taken) free_goal = free_goal && (g - t).norm() > planning_.assignment.separation_m;
     for (const Eigen::Vector2d& a : abandoned_goals_world_) free_goal = free_goal && (g - a).norm() > mission_.goal_reached_m;
@@ -240,7 +267,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   }
   const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &planning_grid_);
   logger_->info("mission: {:.2f} s: {} frontier(s), {} with a goal, {} worth a trip, for {} idle robot(s)", t_s,
-                frontiers.size(), planners::frontier_goals(frontiers).size(), goals.size(), idle.size());
+                frontiers.size(), frontier_goals.size(), goals.size(), idle.size());
   for (std::size_t i = 0; i < idle.size(); ++i) {
     const std::size_t r = idle[i];
     RobotMission& s = state_[r];
@@ -249,9 +276,11 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
       if (!s.exhausted) event(r, t_s, "no reachable frontier left");
       s.exhausted = true;
       reports_[r].status = "no reachable frontier left";
+      look_around(t_s, r, robots[r], looks);
       continue;
     }
     s.exhausted = false;
+    s.look_arounds = 0;
     s.goal_world = goals[static_cast<std::size_t>(g)];
     s.failures_for_goal = 0;
     s.has_path = false;
@@ -365,7 +394,7 @@ std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointClo
   if (!planned()) return commands;
   std::vector<bool> needs_plan(robots_.size(), false);
   update_goals(t_s, robots, needs_plan);
-  if (mission_.kind == MissionKind::kExplore) assign_frontiers(t_s, robots, needs_plan);
+  if (mission_.kind == MissionKind::kExplore) assign_frontiers(t_s, robots, needs_plan, commands);
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;
     const RobotMission& s = state_[r];

@@ -99,12 +99,15 @@ class MissionPlanner {
     bool stopped_lost = false;
     bool backtracked = false;  // lost: the drive back has been commanded
     bool exhausted = false;  // explore: no frontier was left for it at the last assignment
+    int look_arounds = 0;    // quarter turns since its last frontier
     std::vector<planners::Pose2d> path_world;
   };
 
   void rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots);
   void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
-  void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
+  void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
+                        std::vector<PathCommand>& looks);
+  void look_around(double t_s, std::size_t robot, const RobotObservation& seen, std::vector<PathCommand>& commands);
   bool path_blocked(std::size_t robot, const RobotObservation& observation) const;
   void plan(double t_s, const std::vector<RobotObservation>& robots, const std::vector<bool>& needs_plan,
             std::vector<PathCommand>& commands);

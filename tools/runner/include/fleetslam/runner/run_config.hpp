@@ -50,7 +50,12 @@ struct MissionConfig {
   double start_snap_radius_m = 0.5;  // a start inside the inflated obstacles moves to the nearest free cell
   double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
-  double explore_min_goal_distance_m = 1.0;  // frontier goals nearer a ground robot are not worth a trip
+  double explore_min_goal_distance_m = 1.0;
+  // Explore: a robot with no reachable frontier turns a quarter further (a short step that way) to see
+  // more, up to max_look_arounds times until it gets a frontier again. 0 (default): it waits. Turning on
+  // the spot in front of a bare wall can cost an agent its tracking.
+  double look_around_step_m = 0.0;
+  int max_look_arounds = 8;  // frontier goals nearer a ground robot are not worth a trip
 
   template <class V>
   void visit(V& v) {
@@ -67,6 +72,8 @@ struct MissionConfig {
     v("lost_backtrack_m", lost_backtrack_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
     v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
+    v("look_around_step_m", look_around_step_m, core::Limits<double>{0.0, 10.0});
+    v("max_look_arounds", max_look_arounds, core::Limits<int>{0, 1000});
   }
 };
 

@@ -1,0 +1,111 @@
+// Pass criteria against metrics: each criterion on its own, disabled ones absent, and values that were
+// not measured failing with a note (never a silent pass).
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include <nlohmann/json.hpp>
+
+#include "fleetslam/runner/criteria.hpp"
+
+namespace fleetslam::runner {
+namespace {
+
+nlohmann::json metrics() {
+  return {{"robots",
+           {{{"name", "a"}, {"frames", 100}, {"lost", 2}, {"collisions", 0}, {"planned", true}, {"goals_total", 4},
+             {"goals_reached", 4}, {"ate_world_m", {{"rmse", 0.01}}}},
+            {{"name", "b"}, {"frames", 100}, {"lost", 10}, {"collisions", 1}, {"planned", true}, {"goals_total", 4},
+             {"goals_reached", 3}, {"ate_world_m", {{"rmse", 0.03}}}}}},
+          {"merged_map_accuracy", {{"mean_m", 0.012}, {"p95_m", 0.04}, {"completeness", 0.4}}},
+          {"coverage", {{"final", 0.7}}},
+          {"real_time_factor", 0.3}};
+}
+
+const nlohmann::json* find(const nlohmann::json& verdict, const std::string& name, const std::string& robot) {
+  for (const nlohmann::json& c : verdict["criteria"]) {
+    if (c["name"] == name && c["robot"] == robot) return &c;
+  }
+  return nullptr;
+}
+
+TEST(Criteria, NoneEnabledPasses) {
+  const nlohmann::json v = judge(CriteriaConfig{}, metrics());
+  EXPECT_TRUE(v["passed"].get<bool>());
+  EXPECT_TRUE(v["criteria"].empty());
+}
+
+TEST(Criteria, EachCriterionJudgesItsValue) {
+  CriteriaConfig c;
+  c.max_ate_m = 0.02;
+  c.max_lost_share = 0.05;
+  c.no_collisions = true;
+  c.goals_reached = true;
+  c.max_map_accuracy_mean_m = 0.02;
+  c.max_map_accuracy_p95_m = 0.03;
+  c.min_map_completeness = 0.3;
+  c.min_coverage = 0.8;
+  c.min_real_time_factor = 0.2;
+  const nlohmann::json v = judge(c, metrics());
+  EXPECT_FALSE(v["passed"].get<bool>());
+  EXPECT_EQ(v["criteria"].size(), 4u * 2u + 5u);
+  const auto passed = [&](const char* name, const char* robot) {
+    const nlohmann::json* j = find(v, name, robot);
+    EXPECT_NE(j, nullptr) << name << " " << robot;
+    return j != nullptr && (*j)["passed"].get<bool>();
+  };
+  EXPECT_TRUE(passed("ate_world_rmse_m", "a"));
+  EXPECT_FALSE(passed("ate_world_rmse_m", "b"));
+  EXPECT_TRUE(passed("lost_share", "a"));
+  EXPECT_FALSE(passed("lost_share", "b"));
+  EXPECT_TRUE(passed("collisions", "a"));
+  EXPECT_FALSE(passed("collisions", "b"));
+  EXPECT_TRUE(passed("goals_reached_share", "a"));
+  EXPECT_FALSE(passed("goals_reached_share", "b"));
+  EXPECT_EQ((*find(v, "goals_reached_share", "b"))["note"], "3 of 4");
+  EXPECT_TRUE(passed("map_accuracy_mean_m", ""));
+  EXPECT_FALSE(passed("map_accuracy_p95_m", ""));
+  EXPECT_TRUE(passed("map_completeness", ""));
+  EXPECT_FALSE(passed("coverage", ""));
+  EXPECT_TRUE(passed("real_time_factor", ""));
+  EXPECT_EQ((*find(v, "coverage", ""))["comparison"], ">=");
+  EXPECT_EQ((*find(v, "collisions", "b"))["comparison"], "<=");
+  // At the limit passes.
+  c = CriteriaConfig{};
+  c.max_ate_m = 0.03;
+  EXPECT_TRUE(judge(c, metrics())["passed"].get<bool>());
+}
+
+TEST(Criteria, UnmeasuredValuesFailWithANote) {
+  nlohmann::json m = metrics();
+  m["robots"][1].erase("ate_world_m");
+  m["coverage"]["final"] = nullptr;
+  m["merged_map_accuracy"]["mean_m"] = std::numeric_limits<double>::quiet_NaN();
+  m["robots"][0]["frames"] = 0;
+  CriteriaConfig c;
+  c.max_ate_m = 1.0;
+  c.min_coverage = 0.0;
+  c.max_map_accuracy_mean_m = 1.0;
+  c.max_lost_share = 1.0;
+  const nlohmann::json v = judge(c, m);
+  EXPECT_FALSE(v["passed"].get<bool>());
+  const nlohmann::json* ate = find(v, "ate_world_rmse_m", "b");
+  ASSERT_NE(ate, nullptr);
+  EXPECT_FALSE((*ate)["passed"].get<bool>());
+  EXPECT_TRUE((*ate)["value"].is_null());
+  EXPECT_EQ((*ate)["note"], "no estimated trajectory to judge");
+  EXPECT_FALSE((*find(v, "coverage", ""))["passed"].get<bool>());
+  EXPECT_FALSE((*find(v, "map_accuracy_mean_m", ""))["passed"].get<bool>());
+  EXPECT_EQ((*find(v, "lost_share", "a"))["note"], "no frames");
+  // Robots that are not planned have no goals criterion; nothing at all to judge is no crash.
+  m["robots"][0]["planned"] = false;
+  c = CriteriaConfig{};
+  c.goals_reached = true;
+  EXPECT_EQ(judge(c, m)["criteria"].size(), 1u);
+  EXPECT_TRUE(judge(c, nlohmann::json::object())["passed"].get<bool>());
+  EXPECT_TRUE(judge(c, nlohmann::json("odd"))["passed"].get<bool>());
+}
+
+}  // namespace
+}  // namespace fleetslam::runner

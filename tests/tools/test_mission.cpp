@@ -1,0 +1,168 @@
+// MissionPlanner on synthetic fused maps (no simulator): waypoint missions plan, advance and finish;
+// an unreachable goal is given up after max_plan_failures; a lost robot drives back along its trail;
+// exploration sends a robot to the unseen half of a room; robots' own footprints clear ghosts of robots.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "../planners/synthetic_maps.hpp"
+#include "fleetslam/runner/mission.hpp"
+
+namespace fleetslam::runner {
+namespace {
+
+using planners::Pose2d;
+using planners::test::add_box;
+using planners::test::add_floor;
+using planners::test::room;
+
+PlanningConfig planning(planners::UnknownCells unknown = planners::UnknownCells::kFree) {
+  PlanningConfig p;
+  p.grid.bounds_xy_m = {-0.5, -0.5, 6.5, 4.5};
+  p.path.unknown_cells = unknown;
+  p.path.goal_snap_radius_m = 0.3;
+  p.assignment.unknown_cells = unknown;
+  return p;
+}
+
+MissionConfig waypoints_mission() {
+  MissionConfig m;
+  m.kind = MissionKind::kWaypoints;
+  return m;
+}
+
+RobotObservation at(double x, double y, double yaw = 0.0, bool path_done = false) {
+  RobotObservation o;
+  o.tracking = true;
+  o.pose_world = Pose2d{x, y, yaw};
+  o.path_done = path_done;
+  o.footprint_world = {{x, y}};
+  return o;
+}
+
+const PathCommand* command_for(const std::vector<PathCommand>& commands, std::size_t robot) {
+  for (const PathCommand& c : commands) {
+    if (c.robot == robot) return &c;
+  }
+  return nullptr;
+}
+
+TEST(MissionPlanner, WaypointMissionPlansAdvancesAndFinishes) {
+  const core::PointCloud map = room(6.0, 4.0);
+  MissionPlanner mission(waypoints_mission(), planning(),
+                         {MissionRobot{"a", true, {{4.0, 1.0}, {4.0, 3.0}}}, MissionRobot{"b", true, {{1.0, 3.0}}}});
+  // First update: both robots get a path from where they are to their first waypoint.
+  std::vector<PathCommand> commands = mission.update(0.5, map, {at(1.0, 1.0), at(5.0, 3.0, M_PI)});
+  ASSERT_EQ(commands.size(), 2u);
+  for (std::size_t r = 0; r < 2; ++r) {
+    const PathCommand* c = command_for(commands, r);
+    ASSERT_NE(c, nullptr);
+    ASSERT_GE(c->path_world.size(), 2u) << mission.reports()[r].status;
+  }
+  EXPECT_LT((command_for(commands, 0)->path_world.front() - Eigen::Vector2d(1.0, 1.0)).norm(), 0.1);
+  EXPECT_LT((command_for(commands, 0)->path_world.back() - Eigen::Vector2d(4.0, 1.0)).norm(), 0.15);
+  EXPECT_LT((command_for(commands, 1)->path_world.back() - Eigen::Vector2d(1.0, 3.0)).norm(), 0.15);
+  EXPECT_EQ(mission.reports()[0].goals_total, 2);
+  // Still on the way, paths clear: nothing new.
+  commands = mission.update(1.0, map, {at(2.0, 1.0), at(4.0, 3.0, M_PI)});
+  EXPECT_TRUE(commands.empty());
+  // a reached its first waypoint: a path to the next one; b is still on its way and keeps its path.
+  commands = mission.update(2.0, map, {at(3.9, 1.05, 0.0, true), at(3.0, 3.0, M_PI)});
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  EXPECT_EQ(command_for(commands, 1), nullptr);
+  EXPECT_LT((command_for(commands, 0)->path_world.back() - Eigen::Vector2d(4.0, 3.0)).norm(), 0.15);
+  EXPECT_EQ(mission.reports()[0].goals_reached, 1);
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  EXPECT_TRUE(mission.goal_of(0)->isApprox(Eigen::Vector2d(4.0, 3.0)));
+  // Both done.
+  commands = mission.update(3.0, map, {at(4.0, 2.9, M_PI / 2, true), at(1.1, 3.0, M_PI, true)});
+  EXPECT_EQ(mission.reports()[0].goals_reached, 2);
+  EXPECT_EQ(mission.reports()[1].goals_reached, 1);
+  EXPECT_EQ(mission.reports()[0].status, "all goals reached");
+  EXPECT_FALSE(mission.wants_plan(0));
+  EXPECT_FALSE(mission.wants_plan(1));
+  EXPECT_EQ(mission.reports()[0].events.size(), 2u);
+}
+
+TEST(MissionPlanner, UnreachableGoalIsGivenUpThenTheNextOneIsPlanned) {
+  const core::PointCloud map = room(6.0, 4.0);
+  MissionConfig m = waypoints_mission();
+  m.max_plan_failures = 3;
+  MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {{9.0, 1.0}, {3.0, 1.0}}}});  // outside the bounds
+  std::vector<PathCommand> commands;
+  for (int i = 0; i < 3; ++i) {
+    commands = mission.update(0.5 + i, map, {at(1.0, 1.0, 0.0, true)});
+    EXPECT_EQ(mission.reports()[0].plan_failures, i + 1);
+  }
+  EXPECT_EQ(mission.reports()[0].goals_given_up, 1);
+  ASSERT_FALSE(mission.reports()[0].events.empty());
+  EXPECT_NE(mission.reports()[0].events.back().find("(9.00, 1.00) given up: no path (goal_invalid)"), std::string::npos)
+      << mission.reports()[0].events.back();
+  // The next update plans to the reachable waypoint.
+  commands = mission.update(4.0, map, {at(1.0, 1.0, 0.0, true)});
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  EXPECT_LT((command_for(commands, 0)->path_world.back() - Eigen::Vector2d(3.0, 1.0)).norm(), 0.15);
+}
+
+TEST(MissionPlanner, LostRobotDrivesBackAlongItsTrailOnce) {
+  const core::PointCloud map = room(6.0, 4.0);
+  MissionPlanner mission(waypoints_mission(), planning(), {MissionRobot{"a", true, {{5.0, 1.0}}}});
+  mission.update(0.5, map, {at(1.0, 1.0)});
+  RobotObservation lost = at(3.0, 1.0);
+  lost.tracking = false;
+  lost.footprint_world = {{1.0, 1.0}, {1.5, 1.0}, {2.0, 1.0}, {2.5, 1.0}, {3.0, 1.0}};
+  std::vector<PathCommand> commands = mission.update(1.0, map, {lost});
+  const PathCommand* back = command_for(commands, 0);
+  ASSERT_NE(back, nullptr);
+  ASSERT_EQ(back->path_world.size(), 1u);
+  EXPECT_TRUE(back->path_world[0].isApprox(Eigen::Vector2d(2.0, 1.0)));  // the first trail point >= 0.6 m back
+  EXPECT_EQ(mission.reports()[0].status, "tracking lost: waiting to relocalise");
+  EXPECT_TRUE(mission.update(1.5, map, {lost}).empty()) << "the drive back is commanded once";
+  // Tracking again: it plans to its goal.
+  commands = mission.update(2.0, map, {at(2.0, 1.0, M_PI, true)});
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  EXPECT_LT((command_for(commands, 0)->path_world.back() - Eigen::Vector2d(5.0, 1.0)).norm(), 0.15);
+}
+
+TEST(MissionPlanner, ExplorationSendsARobotTowardsTheUnseenHalf) {
+  // The west half of a 6 x 4 m room was seen; the east half is unknown.
+  core::PointCloud map;
+  add_floor(map, 0.0, 0.0, 2.99, 4.0);
+  add_box(map, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(map, -0.05, -0.05, 2.99, -0.01, 0.0, 1.2);
+  add_box(map, -0.05, 4.01, 2.99, 4.05, 0.0, 1.2);
+  MissionConfig m;
+  m.kind = MissionKind::kExplore;
+  MissionPlanner mission(m, planning(planners::UnknownCells::kOccupied), {MissionRobot{"a", true, {}}});
+  const std::vector<PathCommand> commands = mission.update(0.5, map, {at(1.0, 2.0)});
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  EXPECT_GT(mission.goal_of(0)->x(), 2.3) << "a goal at the frontier between the halves";
+  EXPECT_LT(mission.goal_of(0)->x(), 3.0);
+  EXPECT_EQ(mission.reports()[0].goals_total, 1);
+  // Free rigs are never planned.
+  MissionPlanner rig(m, planning(), {MissionRobot{"r", false, {}}});
+  EXPECT_TRUE(rig.update(0.5, map, {at(1.0, 2.0)}).empty());
+  EXPECT_FALSE(rig.wants_plan(0));
+}
+
+TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
+  // Another robot's camera saw robot a standing at (1, 2): a box in the map there.
+  core::PointCloud map = room(6.0, 4.0);
+  add_box(map, 0.85, 1.85, 1.15, 2.15, 0.0, 0.4);
+  MissionConfig m = waypoints_mission();
+  MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {{4.0, 2.0}}}});
+  mission.update(0.5, map, {at(1.0, 2.0)});
+  EXPECT_EQ(mission.grid().state(*mission.grid().cell_of({1.0, 2.0})), planners::CellState::kFree);
+  // Without footprints the box stays.
+  m.footprint_free_radius_m = 0.0;
+  MissionPlanner no_footprint(m, planning(), {MissionRobot{"a", true, {{4.0, 2.0}}}});
+  no_footprint.update(0.5, map, {at(1.0, 2.0)});
+  EXPECT_EQ(no_footprint.grid().state(*no_footprint.grid().cell_of({1.0, 2.0})), planners::CellState::kOccupied);
+}
+
+}  // namespace
+}  // namespace fleetslam::runner
