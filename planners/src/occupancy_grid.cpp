@@ -216,30 +216,37 @@ void OccupancyGrid::mark_free(const std::vector<Disk>& disks_world, bool clear_o
   recompute_clearances();
 }
 
-std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
-                                                   double radius_m, UnknownCells unknown) {
-  if (!p_world.allFinite()) return std::nullopt;
-  if (grid.traversable(p_world, unknown)) return p_world;
+std::optional<Eigen::Vector2d> nearest_cell_centre(const OccupancyGrid& grid, const Eigen::Vector2d& p_world, double radius_m,
+                                                   const std::function<bool(const Eigen::Vector2d&)>& accept) {
+  if (!p_world.allFinite() || !std::isfinite(radius_m)) return std::nullopt;
   const double res = grid.resolution_m();
   const Eigen::Vector2d rel = (p_world - grid.origin_world()) / res;
   const int cx = static_cast<int>(std::floor(rel.x()));
   const int cy = static_cast<int>(std::floor(rel.y()));
   const int r = static_cast<int>(std::ceil(radius_m / res)) + 1;
   std::optional<Eigen::Vector2d> best;
-  double best_m = radius_m;
+  double best_m = std::numeric_limits<double>::infinity();
   for (int y = cy - r; y <= cy + r; ++y) {
     for (int x = cx - r; x <= cx + r; ++x) {
       const CellIndex cell{x, y};
-      if (!grid.contains(cell) || !grid.traversable(cell, unknown)) continue;
+      if (!grid.contains(cell)) continue;
       const Eigen::Vector2d c = grid.center_of(cell);
       const double d = (c - p_world).norm();
-      if (d <= best_m && (!best || d < best_m)) {
+      if (d <= radius_m && d < best_m && accept(c)) {
         best = c;
         best_m = d;
       }
     }
   }
   return best;
+}
+
+std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
+                                                   double radius_m, UnknownCells unknown) {
+  if (!p_world.allFinite()) return std::nullopt;
+  if (grid.traversable(p_world, unknown)) return p_world;
+  return nearest_cell_centre(grid, p_world, radius_m,
+                             [&grid, unknown](const Eigen::Vector2d& c) { return grid.traversable(c, unknown); });
 }
 
 void OccupancyGrid::recompute_clearances() {

@@ -162,26 +162,7 @@ bool reachable(const OccupancyGrid& grid, const PositionCheck& valid, const Eige
 // The valid cell centre nearest `goal` within radius_m (first in scan order on ties).
 std::optional<Eigen::Vector2d> snap_goal(const OccupancyGrid& grid, const PositionCheck& valid,
                                          const Eigen::Vector2d& goal, double radius_m) {
-  const double res = grid.resolution_m();
-  const Eigen::Vector2d rel = (goal - grid.origin_world()) / res;
-  const int cx = static_cast<int>(std::floor(rel.x()));
-  const int cy = static_cast<int>(std::floor(rel.y()));
-  const int r = static_cast<int>(std::ceil(radius_m / res)) + 1;
-  std::optional<Eigen::Vector2d> best;
-  double best_d = std::numeric_limits<double>::infinity();
-  for (int y = cy - r; y <= cy + r; ++y) {
-    for (int x = cx - r; x <= cx + r; ++x) {
-      const CellIndex cell{x, y};
-      if (!grid.contains(cell)) continue;
-      const Eigen::Vector2d c = grid.center_of(cell);
-      const double d = (c - goal).norm();
-      if (d <= radius_m && d < best_d && valid(c)) {
-        best_d = d;
-        best = c;
-      }
-    }
-  }
-  return best;
+  return nearest_cell_centre(grid, goal, radius_m, [&valid](const Eigen::Vector2d& c) { return valid(c); });
 }
 
 double xy_length(const std::vector<Pose2d>& path) {

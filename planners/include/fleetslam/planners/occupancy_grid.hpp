@@ -19,6 +19,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -176,6 +177,11 @@ class OccupancyGrid {
   std::vector<float> clearance_occupied_m_;  // to occupied cells
   std::vector<float> clearance_blocked_m_;   // to occupied or unknown cells
 };
+
+// The centre of the grid cell nearest p_world within radius_m that `accept` takes (first in scan order on
+// ties), or nullopt.
+std::optional<Eigen::Vector2d> nearest_cell_centre(const OccupancyGrid& grid, const Eigen::Vector2d& p_world, double radius_m,
+                                                   const std::function<bool(const Eigen::Vector2d&)>& accept);
 
 // The traversable cell centre nearest p_world within radius_m (p_world itself when it is traversable), or
 // nullopt: where a robot whose inflated footprint touches an obstacle can start a plan from.
