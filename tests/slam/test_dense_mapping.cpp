@@ -109,7 +109,7 @@ TEST(DenseMapping, SkipsMissingOutOfRangeAndFlyingPixels) {
   f.depth_m.colRange(480, 640).setTo(2.0f);                                 // a step at u = 480
   const core::PointCloud cloud = mapper.keyframe_cloud(f);
   for (const Eigen::Vector3f& p : cloud.points) {
-    const double u = p.x() / p.z() * 500.0 + 319.5;
+    const double u = static_cast<double>(p.x() / p.z()) * 500.0 + 319.5;
     EXPECT_GE(u, 399.0);
     EXPECT_GE(p.z(), 0.5f);
     EXPECT_LE(p.z(), 3.0f);

@@ -49,7 +49,9 @@ TEST(Relocalization, RecoversWithinOneSecondAfterATwoSecondBlackout) {
       ASSERT_TRUE(u.has_pose());
       component_before = u.component;
     }
-    if (f.sequence >= kBefore && f.sequence < kBefore + kBlackout) EXPECT_FALSE(u.has_pose());
+    if (f.sequence >= kBefore && f.sequence < kBefore + kBlackout) {
+      EXPECT_FALSE(u.has_pose());
+    }
     if (f.sequence >= kBefore + kBlackout && u.has_pose() && !recovered_ns) {
       recovered_ns = f.t_ns;
       relocalized = u.relocalized;

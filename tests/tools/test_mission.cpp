@@ -164,5 +164,31 @@ TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
   EXPECT_EQ(no_footprint.grid().state(*no_footprint.grid().cell_of({1.0, 2.0})), planners::CellState::kOccupied);
 }
 
+TEST(MissionPlanner, BoxedInRobotIsReportedAndItsGoalGivenUp) {
+  // Cartons all round robot a, 0.15 m from its centre (its radius is 0.2): no free cell for its centre
+  // within reach. b carries on.
+  core::PointCloud map = room(6.0, 4.0);
+  add_box(map, 0.8, 0.8, 1.2, 0.85, 0.0, 0.5);
+  add_box(map, 0.8, 1.15, 1.2, 1.2, 0.0, 0.5);
+  add_box(map, 0.8, 0.8, 0.85, 1.2, 0.0, 0.5);
+  add_box(map, 1.15, 0.8, 1.2, 1.2, 0.0, 0.5);
+  MissionConfig m = waypoints_mission();
+  m.footprint_free_radius_m = 0.0;
+  m.start_snap_radius_m = 0.2;
+  MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {{4.0, 1.0}}}, MissionRobot{"b", true, {{4.0, 3.0}}}});
+  for (int i = 0; i < m.max_plan_failures; ++i) {
+    const std::vector<PathCommand> commands = mission.update(0.5 + i, map, {at(1.0, 1.0, 0.0, true), at(2.0, 3.0)});
+    if (i == 0) {
+      ASSERT_NE(command_for(commands, 1), nullptr);
+      EXPECT_FALSE(command_for(commands, 1)->path_world.empty()) << "b plans as usual";
+    }
+  }
+  EXPECT_EQ(mission.reports()[0].goals_given_up, 1);
+  EXPECT_EQ(mission.reports()[0].plan_log.front().status, "start_invalid");
+  EXPECT_NE(mission.reports()[0].events.back().find("given up: the robot is boxed in"), std::string::npos)
+      << mission.reports()[0].events.back();
+  EXPECT_EQ(mission.reports()[1].goals_given_up, 0);
+}
+
 }  // namespace
 }  // namespace fleetslam::runner
