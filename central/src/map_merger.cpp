@@ -1,7 +1,5 @@
 #include "fleetslam/central/map_merger.hpp"
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -120,23 +118,6 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
                   report.robot_id, round, r.status, r.iterations, r.source_points, r.target_points,
                   sets.indices_b.size(), sets.indices_a.size(),
                   r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
-    // Keep the prior along the directions the overlap does not constrain (see the config).
-    RegistrationResult applied = r;
-    if (usable && config_.min_translation_conditioning > 0.0 && !r.translation_information.isZero()) {
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(r.translation_information);
-      const Eigen::Vector3d lambda = eig.eigenvalues();  // ascending
-      Eigen::Vector3d t = r.T_target_source.translation();
-      for (int k = 0; k < 3; ++k) {
-        if (lambda(k) >= config_.min_translation_conditioning * lambda(2)) continue;
-        const Eigen::Vector3d v = eig.eigenvectors().col(k);
-        logger_->info("merge: robot {}: round {}: translation along ({:.2f}, {:.2f}, {:.2f}) unconstrained "
-                      "(information {:.3g} of the strongest): {:.1f} mm of the correction left out",
-                      report.robot_id, round, v.x(), v.y(), v.z(), lambda(k) / lambda(2), 1e3 * v.dot(t));
-        t -= v.dot(t) * v;
-        ++report.unconstrained_directions;
-      }
-      applied.T_target_source.translation() = t;
-    }
     if (!usable) {
       if (round == 1) {
         report.registration = r;
@@ -146,9 +127,9 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
       }
       return;
     }
-    core::transform_in_place(cloud_world, applied.T_target_source);
-    report.T_world_robot = applied.T_target_source * report.T_world_robot;
-    report.registration = applied;
+    core::transform_in_place(cloud_world, r.T_target_source);
+    report.T_world_robot = r.T_target_source * report.T_world_robot;
+    report.registration = r;
     report.refinement_rounds = round;
     report.refined_overlap_points = sets.indices_b.size();
     report.fine_matched = true;

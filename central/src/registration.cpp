@@ -128,7 +128,6 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
       break;
     }
     H.block<3, 3>(3, 0) = H.block<3, 3>(0, 3).transpose();
-    result.translation_information = H.block<3, 3>(3, 3);
     const Vector6d xi = H.ldlt().solve(-g);
     if (!xi.allFinite()) {
       result.status = "degenerate";

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <limits>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -97,46 +96,6 @@ TEST(MapMerger, ASecondRoundOnTheRefinedOverlapIsMoreAccurate) {
   EXPECT_LT(two_rad, one_rad);
   EXPECT_LT(two_m, 0.005);
   EXPECT_LT(two_rad, 0.2 * kDeg);
-}
-
-// A corridor along x (floor and two walls, no ends) seen by a robot where x is in [x_min, x_max], in
-// the world frame.
-core::PointCloud corridor(float x_min, float x_max, std::uint32_t seed, std::size_t n = 30000) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::normal_distribution<float> noise(0.0f, 0.003f);
-  core::PointCloud cloud;
-  for (std::size_t i = 0; i < n; ++i) {
-    const float x = x_min + (x_max - x_min) * u(rng);
-    const float a = u(rng), b = u(rng);
-    const int surface = static_cast<int>(i % 3);
-    if (surface == 0) cloud.push_back({x, 2.0f * a, noise(rng)});            // floor
-    if (surface == 1) cloud.push_back({x, noise(rng), 2.5f * b});            // wall y = 0
-    if (surface == 2) cloud.push_back({x, 2.0f + noise(rng), 2.5f * b});     // wall y = 2
-  }
-  return cloud;
-}
-
-// Along a corridor the overlap says nothing about x: the prior's x stays, the constrained directions are
-// refined; without the check GICP moves the map along x as it likes.
-TEST(MapMerger, ACorridorOverlapKeepsThePriorAlongTheCorridor) {
-  const Eigen::Isometry3d error = synthetic::pose(0.0, 0.0, 0.0, Eigen::Vector3d(0.06, 0.05, 0.0));
-  RobotCloud a{0, corridor(0.0f, 4.0f, 7), Eigen::Isometry3d::Identity()};
-  RobotCloud b{1, corridor(2.0f, 6.0f, 8), error};  // b's frame is the world's; its prior is 6 cm / 5 cm off
-  MapMergerConfig config;
-  config.sampling.enabled = false;
-  config.filter.enabled = false;
-  const MergeResult kept = MapMerger(config).merge({a, b});
-  const RobotMergeReport& r = kept.robots[1];
-  ASSERT_TRUE(r.fine_matched) << r.status;
-  EXPECT_GE(r.unconstrained_directions, 1);
-  EXPECT_NEAR(r.T_world_robot.translation().x(), 0.06, 1e-3) << "x keeps the prior (the small rotation aside)";
-  EXPECT_LT(std::abs(r.T_world_robot.translation().y()), 0.005) << "y is refined";
-  EXPECT_LT(std::abs(r.T_world_robot.translation().z()), 0.005);
-  config.min_translation_conditioning = 0.0;
-  const MergeResult free = MapMerger(config).merge({a, b});
-  EXPECT_EQ(free.robots[1].unconstrained_directions, 0);
-  EXPECT_LT(std::abs(free.robots[1].T_world_robot.translation().y()), 0.005);
 }
 
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {

@@ -51,11 +51,6 @@ struct MapMergerConfig {
   double refine_radius_m = 0.1;
   int min_overlap_points = 100;     // fewer mutual pairs: no fine matching, the robot waits (see above)
   double min_inlier_ratio = 0.5;    // a GICP result with fewer inliers is discarded
-  // Directions of translation the overlap hardly constrains keep the prior: those whose information
-  // (eigenvalue of the registration's translation information) is below this share of the strongest one.
-  // A corridor's floor and two walls say nothing about where along the corridor a map lies; GICP still
-  // moves it there, by noise and by the maps' own drift. 0: every direction is refined.
-  double min_translation_conditioning = 0.02;
   UniformSamplingConfig sampling;
   GaussianFilterConfig filter;
 
@@ -67,7 +62,6 @@ struct MapMergerConfig {
     v("refine_radius_m", refine_radius_m, core::Limits<double>{1e-3, 100.0});
     v("min_overlap_points", min_overlap_points, core::Limits<int>{1, 1 << 30});
     v("min_inlier_ratio", min_inlier_ratio, core::Limits<double>{0.0, 1.0});
-    v("min_translation_conditioning", min_translation_conditioning, core::Limits<double>{0.0, 1.0});
     v("sampling", sampling);
     v("filter", filter);
   }
@@ -81,7 +75,6 @@ struct RobotMergeReport {
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (the prior when not fine matched)
   bool placed = false;                 // in the merged cloud
   bool fine_matched = false;           // a GICP correction was applied
-  int unconstrained_directions = 0;    // translation directions (over all rounds) that kept the prior
   // Coarse matching against the merged cloud at the robot's last attempt: mutual pairs in all, and per
   // robot already placed (robot id, pairs) -- the per-pair overlap sizes.
   std::size_t overlap_points = 0;

@@ -65,10 +65,6 @@ struct RegistrationResult {
   std::size_t source_points = 0;  // used, after sampling
   std::size_t target_points = 0;
   std::string status;  // "converged", "max iterations", "too few points", "degenerate", "disabled"
-  // The translation block of the Gauss-Newton information (sum of the correspondences' plane-to-plane
-  // weights) at the result: its eigenvectors with small eigenvalues are directions the overlap hardly
-  // constrains (along a corridor, say). Zero when not computed (the PCL backend).
-  Eigen::Matrix3d translation_information = Eigen::Matrix3d::Zero();
 };
 
 class GicpRegistration {
