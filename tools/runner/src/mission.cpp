@@ -319,7 +319,9 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
     if (needs_plan[r]) {
       order.push_back(r);
     } else {
-      standing.push_back({robots[r].pose_world.xy(), planning_.deconfliction.separation_m});
+      // Marked occupied, the disk is then inflated by the robot radius: centres stay separation_m apart.
+      standing.push_back({robots[r].pose_world.xy(),
+                          std::max(0.0, planning_.deconfliction.separation_m - planning_grid_.config().robot_radius_m)});
     }
   }
   if (!standing.empty()) grid.block(standing);
