@@ -428,8 +428,9 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       {"merged_map_accuracy", accuracy_json(merged_accuracy)},
       {"coverage", {{"final", coverage_series.empty() ? nlohmann::json() : coverage_series.back()[1]},
                     {"free_cells_truth", truth_space.cells}, {"cell_m", config_.planner.grid.resolution_m}}},
-      {"central_timings_ms", {{"merges_during_run", merge_ms_during_run}, {"mission_updates", mission_updates},
-                              {"planning_and_coverage", mission_ms}, {"final_merge", report.merge.timings.total_ms}}},
+      {"mission_updates", mission_updates},
+      {"central_timings_ms", {{"merges_during_run", merge_ms_during_run}, {"planning_and_coverage", mission_ms},
+                              {"final_merge", report.merge.timings.total_ms}}},
       {"merge", central::to_json(report.merge)}};
   metrics["verdict"] = judge(config_.criteria, metrics);
   write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
