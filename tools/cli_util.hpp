@@ -22,8 +22,9 @@ core::Logger make_cli_logger(const std::string& command, const GlobalOptions& gl
 // per 10 %.
 core::Progress make_progress(std::size_t total, const std::string& label, const core::Logger& logger);
 
-// Shared with the runner library: writing text outputs, loop closures as JSON.
+// Shared with the runner library: writing text outputs, timings and loop closures as JSON.
 using runner::loop_event_json;
+using runner::timing_stats_json;
 using runner::write_text_file;
 
 // The config's defaults overridden by `file` (every key checked; none when `file` is empty).

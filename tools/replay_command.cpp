@@ -198,16 +198,6 @@ core::Trajectory groundtruth(const ReplayOptions& o, const core::FrameSource& so
   return per_frame;
 }
 
-nlohmann::json stats_json(std::vector<double> values) {
-  if (values.empty()) return nullptr;
-  std::sort(values.begin(), values.end());
-  double sum = 0.0;
-  for (double v : values) sum += v;
-  const auto at = [&](double q) { return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1))]; };
-  return {{"count", values.size()}, {"mean", sum / static_cast<double>(values.size())}, {"median", at(0.5)},
-          {"p90", at(0.9)}, {"max", values.back()}};
-}
-
 struct RunResult {
   core::Trajectory estimate;
   core::Trajectory keyframes;
@@ -257,7 +247,7 @@ void print_summary(const RunResult& run, const std::optional<core::AteResult>& a
               run.map.components);
   std::printf("dense map:    %zu points (%zu back-projected)\n", run.dense_stats.points, run.dense_stats.back_projected);
   std::printf("loops:        %zu closed, %d relocalisation(s)\n", run.log.loops().size(), run.log.relocalizations());
-  const nlohmann::json tracking = stats_json(run.log.tracking_ms());
+  const nlohmann::json tracking = timing_stats_json(run.log.tracking_ms());
   if (!tracking.is_null()) {
     std::printf("tracking:     median %.1f ms, p90 %.1f ms per frame\n", tracking["median"].get<double>(),
                 tracking["p90"].get<double>());
@@ -397,8 +387,8 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"loops", run.log.loops()}, {"relocalizations", run.log.relocalizations()},
                             {"dense_points", run.dense_stats.points},
                             {"dense_back_projected", run.dense_stats.back_projected},
-                            {"tracking_ms", stats_json(run.log.tracking_ms())},
-                            {"total_ms", stats_json(run.log.total_ms())},
+                            {"tracking_ms", timing_stats_json(run.log.tracking_ms())},
+                            {"total_ms", timing_stats_json(run.log.total_ms())},
                             {"localization_only", config.localization_only}};
   if (!o.load_map.empty()) {
     metrics["loaded_map"] = {{"file", o.load_map}, {"load_s", load_s}};

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/markup.hpp"
 
 namespace fleetslam::core {
 namespace {
@@ -31,20 +32,6 @@ std::string number(double v, int decimals = 2) {
   std::array<char, 64> buffer{};
   std::snprintf(buffer.data(), buffer.size(), "%.*f", decimals, v);
   return buffer.data();
-}
-
-std::string escape_xml(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
 }
 
 // A value interval mapped linearly onto a pixel interval (p1 < p0 flips the axis, as SVG y does).
@@ -100,7 +87,7 @@ class SvgWriter {
             number(y1) + "\" style=\"" + style + "\"/>\n";
   }
   void text(double x, double y, const std::string& s, const std::string& attributes = "") {
-    out_ += "<text x=\"" + number(x) + "\" y=\"" + number(y) + "\" " + attributes + ">" + escape_xml(s) + "</text>\n";
+    out_ += "<text x=\"" + number(x) + "\" y=\"" + number(y) + "\" " + attributes + ">" + escape_markup(s) + "</text>\n";
   }
   // One path; a point starting a new segment (after a gap) is a move, not a line.
   void path(const std::vector<PlotPoint>& points, const std::string& colour, double width) {

@@ -2,6 +2,7 @@
 
 #include "fleetslam/runner/outputs.hpp"
 
+#include <algorithm>
 #include <fstream>
 
 #include "fleetslam/core/error.hpp"
@@ -14,6 +15,16 @@ void write_text_file(const std::filesystem::path& path, const std::string& text)
   if (!file) throw InputError(path.string(), "cannot open the file for writing");
   file << text;
   if (!file.flush()) throw InputError(path.string(), "write failed");
+}
+
+nlohmann::json timing_stats_json(std::vector<double> values_ms) {
+  if (values_ms.empty()) return nullptr;
+  std::sort(values_ms.begin(), values_ms.end());
+  double sum = 0.0;
+  for (double v : values_ms) sum += v;
+  const auto at = [&](double q) { return values_ms[static_cast<std::size_t>(q * static_cast<double>(values_ms.size() - 1))]; };
+  return {{"count", values_ms.size()}, {"mean", sum / static_cast<double>(values_ms.size())}, {"median", at(0.5)},
+          {"p90", at(0.9)}, {"p95", at(0.95)}, {"max", values_ms.back()}};
 }
 
 nlohmann::json loop_event_json(const slam::LoopEvent& e) {

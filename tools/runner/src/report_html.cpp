@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/markup.hpp"
 
 namespace fleetslam::runner {
 namespace {
@@ -93,23 +94,7 @@ std::optional<std::vector<double>> finite_row(const json* row, std::size_t colum
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Text: escaping and locale-independent number formatting.
-
-std::string escape_html(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
+// Text: locale-independent number formatting (escaping: core::escape_markup).
 
 // `value` with `decimals` digits after the point ("n/a" when not finite); "-0.00" comes out as "0.00".
 std::string fixed(double value, int decimals) {
@@ -157,7 +142,7 @@ std::string count_text(const json* node) {
 
 std::string string_text(const json* node) {
   const auto text = string_of(node);
-  return text ? escape_html(*text) : kNoValue;
+  return text ? core::escape_markup(*text) : kNoValue;
 }
 
 std::string not_available_html() { return std::string("<p class=\"na\">") + kNotAvailable + "</p>\n"; }
@@ -345,13 +330,13 @@ struct PlotArea {
 std::string svg_open(double width_px, double height_px, const std::string& description) {
   return "<svg class=\"chart\" role=\"img\" width=\"" + px(width_px) +
          "\" height=\"" + px(height_px) + "\" viewBox=\"0 0 " + px(width_px) + " " + px(height_px) + "\"><title>" +
-         escape_html(description) + "</title>\n";
+         core::escape_markup(description) + "</title>\n";
 }
 
 std::string svg_text(double x, double y, const std::string& anchor, const std::string& text,
                      const std::string& extra = {}) {
   return "<text x=\"" + px(x) + "\" y=\"" + px(y) + "\" text-anchor=\"" + anchor + "\"" + extra + ">" +
-         escape_html(text) + "</text>";
+         core::escape_markup(text) + "</text>";
 }
 
 std::string axes_svg(const PlotArea& area, const std::string& x_label, const std::string& y_label) {
@@ -460,12 +445,12 @@ std::string legend_key_svg(const std::string& shape) {
 }
 
 std::string legend_item(const std::string& key_html, const std::string& label) {
-  return "<span>" + key_html + escape_html(label) + "</span>";
+  return "<span>" + key_html + core::escape_markup(label) + "</span>";
 }
 
 std::string robots_legend(const std::vector<std::string>& labels, const RobotColours& colours) {
   std::string html = "<div class=\"legend\">";
-  for (const auto& label : labels) html += "<span>" + swatch(colours.colour_of(label)) + escape_html(label) + "</span>";
+  for (const auto& label : labels) html += "<span>" + swatch(colours.colour_of(label)) + core::escape_markup(label) + "</span>";
   return html + "</div>\n";
 }
 
@@ -507,7 +492,7 @@ section{break-inside:avoid}
 // "label: value" pairs of the header, a missing value shown as "not available".
 std::string fact(const std::string& label, const std::optional<std::string>& value_html) {
   const std::string value = value_html ? *value_html : std::string("<span class=\"na\">") + kNotAvailable + "</span>";
-  return "<dt>" + escape_html(label) + "</dt><dd>" + value + "</dd>";
+  return "<dt>" + core::escape_markup(label) + "</dt><dd>" + value + "</dd>";
 }
 
 std::optional<std::string> number_fact(const json* node, int decimals, const std::string& unit_html,
@@ -527,14 +512,14 @@ std::optional<std::string> count_fact(const json* node) {
 std::optional<std::string> string_fact(const json* node) {
   const auto text = string_of(node);
   if (!text) return std::nullopt;
-  return escape_html(*text);
+  return core::escape_markup(*text);
 }
 
 std::string header_section(const json& report) {
   const json* metrics = child(report, "metrics");
   const auto title = string_of(child(report, "title"));
   std::string html =
-      "<header><h1>" + escape_html(title ? *title : "fleetslam run report") + "</h1>\n<dl class=\"facts\">";
+      "<header><h1>" + core::escape_markup(title ? *title : "fleetslam run report") + "</h1>\n<dl class=\"facts\">";
   html += fact("Scenario", string_fact(child(metrics, "scenario")));
   html += fact("Seed", count_fact(child(metrics, "seed")));
   html += fact("Simulated time", number_fact(child(metrics, "simulated_s"), 2, " s"));
@@ -558,7 +543,7 @@ std::string banner_section(const json* verdict) {
   }
   const std::string css_class = !passed ? "unknown" : *passed ? "pass" : "fail";
   const std::string word = !passed ? "NO VERDICT" : *passed ? "PASS" : "FAIL";
-  return "<div class=\"banner " + css_class + "\" id=\"verdict\">" + word + "<small>" + escape_html(detail) +
+  return "<div class=\"banner " + css_class + "\" id=\"verdict\">" + word + "<small>" + core::escape_markup(detail) +
          "</small></div>\n";
 }
 
@@ -572,7 +557,7 @@ std::string comparison_html(const json* comparison) {
   if (!text) return "";
   if (*text == "<=") return "&le; ";
   if (*text == ">=") return "&ge; ";
-  return escape_html(*text) + " ";
+  return core::escape_markup(*text) + " ";
 }
 
 std::string criterion_row(const json* criterion, const RobotColours& colours) {
@@ -583,7 +568,7 @@ std::string criterion_row(const json* criterion, const RobotColours& colours) {
   } else if (robot->empty()) {
     robot_html = "run-wide";
   } else {
-    robot_html = swatch(colours.colour_of(*robot)) + escape_html(*robot);
+    robot_html = swatch(colours.colour_of(*robot)) + core::escape_markup(*robot);
   }
   const auto value = number_of(child(criterion, "value"));
   const auto limit = number_of(child(criterion, "limit"));
@@ -591,7 +576,7 @@ std::string criterion_row(const json* criterion, const RobotColours& colours) {
   return "<tr><td>" + string_text(child(criterion, "name")) + "</td><td>" + robot_html + "</td><td class=\"num\">" +
          (value ? smart_number(*value) : kNoValue) + "</td><td class=\"num\">" +
          comparison_html(child(criterion, "comparison")) + (limit ? smart_number(*limit) : kNoValue) +
-         "</td><td>" + pill(bool_of(child(criterion, "passed"))) + "</td><td>" + (note ? escape_html(*note) : "") +
+         "</td><td>" + pill(bool_of(child(criterion, "passed"))) + "</td><td>" + (note ? core::escape_markup(*note) : "") +
          "</td></tr>\n";
 }
 
@@ -615,7 +600,7 @@ std::string goals_text(const json* robot) {
 std::string robot_row(const json* robot, std::size_t index, const RobotColours& colours) {
   const std::string label = robot_label(robot, index);
   const json* ate = child(robot, "ate_world_m");
-  std::string row = "<tr><td>" + swatch(colours.colour_of(label)) + escape_html(label) + "</td><td>" +
+  std::string row = "<tr><td>" + swatch(colours.colour_of(label)) + core::escape_markup(label) + "</td><td>" +
                     string_text(child(robot, "status")) + "</td>";
   for (const char* key : {"frames", "tracked", "lost", "keyframes"}) {
     row += "<td class=\"num\">" + count_text(child(robot, key)) + "</td>";
@@ -926,7 +911,7 @@ std::string scale_bar_svg(const TopDownFrame& frame) {
 
 std::string top_down_legend(const std::vector<RobotTracks>& tracks, bool has_map) {
   std::string html = "<div class=\"legend\">";
-  for (const auto& track : tracks) html += "<span>" + swatch(track.colour) + escape_html(track.label) + "</span>";
+  for (const auto& track : tracks) html += "<span>" + swatch(track.colour) + core::escape_markup(track.label) + "</span>";
   html += legend_item(legend_key_svg("<path d=\"M1 6h24\" stroke=\"#374151\" stroke-width=\"2.2\"/>"), "estimated");
   html += legend_item(legend_key_svg("<path d=\"M1 6h24\" stroke=\"#374151\" stroke-width=\"1.6\" "
                                      "stroke-dasharray=\"5 4\"/>"),
@@ -1029,7 +1014,7 @@ std::string keyframe_chart(const json* robot, std::size_t index, const RobotColo
   }
   const std::size_t inserted_count = inserted.points.size();
   chart.dots.push_back(std::move(inserted));
-  std::string html = "<h3>" + swatch(colour) + escape_html(label) + "</h3>\n";
+  std::string html = "<h3>" + swatch(colour) + core::escape_markup(label) + "</h3>\n";
   if (decisions == 0) return html + not_available_html();
   html += "<p class=\"note\">" + std::to_string(inserted_count) + " keyframes inserted in " +
           std::to_string(decisions) + " decisions";
@@ -1060,7 +1045,7 @@ std::string robot_timing_rows(const json* robot, std::size_t index, const RobotC
   const std::string label = robot_label(robot, index);
   std::string rows;
   for (const auto& [stage, stats] : timings->items()) {
-    rows += "<tr><td>" + swatch(colours.colour_of(label)) + escape_html(label) + "</td><td>" + escape_html(stage) +
+    rows += "<tr><td>" + swatch(colours.colour_of(label)) + core::escape_markup(label) + "</td><td>" + core::escape_markup(stage) +
             "</td>";
     for (const char* key : {"mean", "median", "p95"}) {
       rows += "<td class=\"num\">" + number_text(child(&stats, key), 2) + "</td>";
@@ -1076,7 +1061,7 @@ std::string central_timings(const json* metrics) {
   if (timings == nullptr || !timings->is_object() || timings->empty()) return html + not_available_html();
   html += "<table class=\"timings\"><tr><th>Stage</th><th class=\"num\">Time (ms)</th></tr>\n";
   for (const auto& [stage, value] : timings->items()) {
-    html += "<tr><td>" + escape_html(stage) + "</td><td class=\"num\">" + number_text(&value, 2) + "</td></tr>\n";
+    html += "<tr><td>" + core::escape_markup(stage) + "</td><td class=\"num\">" + number_text(&value, 2) + "</td></tr>\n";
   }
   return html + "</table>\n";
 }
@@ -1105,7 +1090,7 @@ std::string render_report_html(const nlohmann::json& report) {
   const RobotColours colours = robot_colours(report);
   const auto title = string_of(child(report, "title"));
   std::string html = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" +
-                     escape_html(title ? *title : "fleetslam run report") + "</title>\n<style>\n" + css() +
+                     core::escape_markup(title ? *title : "fleetslam run report") + "</title>\n<style>\n" + css() +
                      "</style>\n</head>\n<body>\n<main>\n";
   html += header_section(report);
   html += banner_section(verdict);

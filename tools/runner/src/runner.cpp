@@ -57,16 +57,6 @@ nlohmann::json accuracy_json(const central::MapAccuracy& a) {
           {"mean_m", a.mean_m}, {"median_m", a.median_m}, {"p95_m", a.p95_m}, {"completeness", a.completeness}};
 }
 
-// mean / median / p95 of a sample (ms).
-nlohmann::json timing_stats(std::vector<double> values) {
-  if (values.empty()) return nullptr;
-  double sum = 0.0;
-  for (double v : values) sum += v;
-  std::sort(values.begin(), values.end());
-  const auto at = [&](double q) { return values[std::min(values.size() - 1, static_cast<std::size_t>(q * (values.size() - 1) + 0.5))]; };
-  return {{"mean", sum / static_cast<double>(values.size())}, {"median", at(0.5)}, {"p95", at(0.95)}};
-}
-
 // The pose of a ground robot's body in the plane from its camera pose.
 planners::Pose2d body_pose_2d(const Eigen::Isometry3d& T_world_cam, const Eigen::Isometry3d& T_body_cam) {
   const Eigen::Isometry3d T_world_body = T_world_cam * T_body_cam.inverse();
@@ -299,10 +289,11 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     const double t_s = core::ns_to_seconds(world.time_ns());
     for (std::size_t r = 0; r < robots.size(); ++r) {
       RobotRun& robot = robots[r];
-      const bool contact = world.truth(r).contacts_with_scene > 0;
+      const sim::RobotTruth truth = world.truth(r);
+      const bool contact = truth.contacts_with_scene > 0;
       if (contact && !robot.in_contact) {
         ++robot.collisions;
-        const Eigen::Vector3d p = world.truth(r).T_world_body.translation();
+        const Eigen::Vector3d p = truth.T_world_body.translation();
         robot.collision_events.push_back({{"t_s", t_s}, {"x", p.x()}, {"y", p.y()}});
         logger->warn("run: {} touches the scene at {:.2f} s ({:.2f}, {:.2f})", robot.name, t_s, p.x(), p.y());
       }
@@ -360,9 +351,9 @@ RunOutcome Runner::run(const ProgressSink& progress) {
                             {"planned", mission.planned() && robot.ground}, {"goals_total", m.goals_total},
                             {"goals_reached", m.goals_reached}, {"goals_given_up", m.goals_given_up},
                             {"plans", m.plans}, {"plan_failures", m.plan_failures}, {"mission_events", m.events},
-                            {"timings_ms", {{"tracking", timing_stats(robot.tracking_ms)}, {"mapping", timing_stats(robot.mapping_ms)},
-                                            {"dense", timing_stats(robot.dense_ms)}, {"loop", timing_stats(robot.loop_ms)},
-                                            {"total", timing_stats(robot.total_ms)}}}};
+                            {"timings_ms", {{"tracking", timing_stats_json(robot.tracking_ms)}, {"mapping", timing_stats_json(robot.mapping_ms)},
+                                            {"dense", timing_stats_json(robot.dense_ms)}, {"loop", timing_stats_json(robot.loop_ms)},
+                                            {"total", timing_stats_json(robot.total_ms)}}}};
     nlohmann::json series = {{"name", robot.name}, {"keyframe_decisions", robot.keyframe_decisions}};
     nlohmann::json plans = nlohmann::json::array();
     for (const PlanRecord& plan : m.plan_log) {

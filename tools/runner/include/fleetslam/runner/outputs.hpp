@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -12,6 +13,10 @@ namespace fleetslam::runner {
 
 // Writes `text` to `path` (truncating); InputError naming the file when that fails.
 void write_text_file(const std::filesystem::path& path, const std::string& text);
+
+// A sample of per-frame timings (ms) as metrics.json reports it: count, mean, median, p90, p95, max (the
+// value at index floor(q * (n - 1)) of the sorted sample); null when empty.
+nlohmann::json timing_stats_json(std::vector<double> values_ms);
 
 // A loop closure as metrics.json reports it: keyframes, time, score, matches, the correction's size.
 nlohmann::json loop_event_json(const slam::LoopEvent& event);
