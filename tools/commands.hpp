@@ -45,4 +45,9 @@ void add_vocab_command(CLI::App& app, const GlobalOptions& global);
 // lockstep, judged against ground truth and the scenario's pass criteria (CriteriaFailed when one fails).
 void add_run_command(CLI::App& app, const GlobalOptions& global);
 
+// fleetslam experiment matching|keyframes|sampling|all [--out DIR] [--tum DIR] [--euroc DIR] [--scenario F]
+// [--frames N] [--repetitions N] [--runs N] [--features 250,1000,2000] [--doc FILE]: the paper's Tables 1-3
+// and Fig. 7 as CSV, Markdown and SVG (tools/experiments/); `all --doc` writes the results document.
+void add_experiment_command(CLI::App& app, const GlobalOptions& global);
+
 }  // namespace fleetslam::tools

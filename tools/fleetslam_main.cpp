@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", global.quiet, "Only warnings and errors");
 
   fleetslam::tools::add_eval_command(app, global);
+  fleetslam::tools::add_experiment_command(app, global);
   fleetslam::tools::add_dataset_command(app, global);
   fleetslam::tools::add_generate_command(app, global);
   fleetslam::tools::add_replay_command(app, global);

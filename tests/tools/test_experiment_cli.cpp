@@ -1,0 +1,175 @@
+// Smoke tests of `fleetslam experiment`: each experiment on a few frames of the real TUM excerpt (skipped
+// when ../shared/data is absent) and a short rendered office scenario writes well-formed CSV, Markdown and
+// SVG; a repeat run gives the same CSV bytes apart from the timing columns; bad input exits 2 naming it.
+// Never timing.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_test_util.hpp"
+
+namespace fleetslam {
+namespace {
+
+namespace fs = std::filesystem;
+using test::read_text;
+
+const fs::path kData = FLEETSLAM_DATA_DIR;
+const fs::path kTum = kData / "tum" / "rgbd_dataset_freiburg1_rpy_200";
+const fs::path kTumCalibration = kData / "calib" / "TUM1.yaml";
+const fs::path kEuroc = kData / "euroc" / "V1_01_easy_micro";
+const fs::path kOffice = fs::path(FLEETSLAM_SOURCE_DIR) / "scenes" / "office" / "office_2robots.yaml";
+
+std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::stringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// CSV: the header is `header`, then `rows` rows of as many fields (no quoted commas in these files).
+void expect_csv(const fs::path& file, const std::string& header_prefix, std::size_t rows) {
+  ASSERT_TRUE(fs::exists(file)) << file;
+  const std::vector<std::string> lines = lines_of(read_text(file));
+  ASSERT_EQ(lines.size(), rows + 1) << read_text(file);
+  EXPECT_EQ(lines[0].rfind(header_prefix, 0), 0u) << lines[0];
+  const auto fields = std::count(lines[0].begin(), lines[0].end(), ',');
+  for (const std::string& line : lines) EXPECT_EQ(std::count(line.begin(), line.end(), ','), fields) << line;
+}
+
+void expect_markdown_table(const fs::path& file) {
+  ASSERT_TRUE(fs::exists(file)) << file;
+  const std::string text = read_text(file);
+  EXPECT_EQ(text.rfind("# ", 0), 0u);
+  EXPECT_NE(text.find("\n|---|"), std::string::npos) << text;
+}
+
+void expect_svg(const fs::path& file, const std::string& element) {
+  ASSERT_TRUE(fs::exists(file)) << file;
+  const std::string text = read_text(file);
+  EXPECT_EQ(text.rfind("<svg xmlns=\"http://www.w3.org/2000/svg\"", 0), 0u);
+  EXPECT_NE(text.find("</svg>"), std::string::npos);
+  EXPECT_NE(text.find("<" + element), std::string::npos) << file;
+  EXPECT_NE(text.find("<text"), std::string::npos);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '<'), std::count(text.begin(), text.end(), '>'));
+}
+
+// The CSV without its last `timing_columns` columns (the timing ones are last in every file here).
+std::string without_timing(const fs::path& file, int timing_columns) {
+  std::string out;
+  for (std::string line : lines_of(read_text(file))) {
+    for (int i = 0; i < timing_columns; ++i) line = line.substr(0, line.rfind(','));
+    out += line + "\n";
+  }
+  return out;
+}
+
+class ExperimentCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+    dir_ = test::fresh_test_dir("fleetslam_test_experiment_cli");
+  }
+  // Small data: 12 frames, a 0.7 s office rendering shared by the tests of one run (same --out/synthetic).
+  std::string common(const fs::path& out, int frames = 12) const {
+    return " --out " + quoted(out) + " --tum " + quoted(kTum) + " --tum-calibration " + quoted(kTumCalibration) +
+           " --scenario " + quoted(kOffice) + " --synthetic-duration 0.7 --frames " + std::to_string(frames);
+  }
+  fs::path dir_;
+};
+
+TEST_F(ExperimentCli, MatchingWritesTable1) {
+  const fs::path out = dir_ / "run";
+  const std::string args = "-q experiment matching" + common(out) + " --euroc none --repetitions 2 --pairs 2 --features 250,500";
+  const test::CliResult r = test::run_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // 2 sequences (TUM, office/alpha) x 2 feature counts x 5 matchers.
+  expect_csv(out / "matching" / "matching.csv", "sequence,origin,features,matcher,pairs,repetitions", 20);
+  expect_markdown_table(out / "matching" / "matching.md");
+  expect_svg(out / "matching" / "matching_time_tum_rgbd_dataset_freiburg1_rpy_200.svg", "polyline");
+  expect_svg(out / "matching" / "matching_precision_office_2robots_alpha.svg", "circle");
+  const std::string csv = read_text(out / "matching" / "matching.csv");
+  for (const char* matcher : {"brute_force,", "brute_force_opencv,", "flann_lsh,", "grid,", "cross_validation,"}) {
+    EXPECT_NE(csv.find(matcher), std::string::npos) << matcher;
+  }
+  // A repeat run (the rendering reused) gives the same rows apart from the two timing columns.
+  const fs::path first = dir_ / "first.csv";
+  fs::copy_file(out / "matching" / "matching.csv", first);
+  const test::CliResult again = test::run_cli(args);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(without_timing(out / "matching" / "matching.csv", 2), without_timing(first, 2));
+}
+
+TEST_F(ExperimentCli, SamplingWritesTable3) {
+  const fs::path out = dir_ / "run";
+  const test::CliResult r = test::run_cli("-q experiment sampling" + common(out) + " --euroc none");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_csv(out / "sampling" / "sampling.csv", "dataset,origin,mode,robots,frames,duration_s,points_before", 2);
+  const std::string csv = read_text(out / "sampling" / "sampling.csv");
+  EXPECT_NE(csv.find("tum/rgbd_dataset_freiburg1_rpy_200,real,split,2,12,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("office_2robots,synthetic,robots,2,24,"), std::string::npos) << csv;
+  expect_markdown_table(out / "sampling" / "sampling.md");
+  EXPECT_NE(read_text(out / "sampling" / "sampling.md").find("reduction (%)"), std::string::npos);
+  expect_svg(out / "sampling" / "sampling_points.svg", "rect x=");
+}
+
+TEST_F(ExperimentCli, KeyframesWritesTable2AndFig7) {
+  if (!fs::exists(kEuroc)) GTEST_SKIP() << "no EuRoC excerpt at " << kEuroc;
+  const fs::path out = dir_ / "run";
+  const test::CliResult r = test::run_cli("-q experiment keyframes" + common(out) + " --euroc " + quoted(kEuroc) + " --runs 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // 3 sequences x 3 policies; x 2 runs each in the per-run file.
+  expect_csv(out / "keyframes" / "keyframes.csv", "sequence,origin,policy,runs,runs_with_ate,distinct_results", 9);
+  expect_csv(out / "keyframes" / "keyframes_runs.csv", "sequence,policy,run,seed,threaded", 18);
+  const std::string csv = read_text(out / "keyframes" / "keyframes.csv");
+  for (const char* policy : {",orbslam3,", ",exponential,", ",fixed_interval,"}) {
+    EXPECT_NE(csv.find(policy), std::string::npos) << policy;
+  }
+  EXPECT_NE(csv.find("tum/rgbd_dataset_freiburg1_rpy_200,real,exponential,2,2,"), std::string::npos) << csv;
+  expect_markdown_table(out / "keyframes" / "keyframes.md");
+  expect_svg(out / "keyframes" / "cumulative_ate_rmse_tum_rgbd_dataset_freiburg1_rpy_200.svg", "polyline");
+  expect_svg(out / "keyframes" / "cumulative_ate_std_tum_rgbd_dataset_freiburg1_rpy_200.svg", "polyline");
+}
+
+TEST_F(ExperimentCli, AllWritesTheResultsDocument) {
+  const fs::path out = dir_ / "run";
+  const fs::path doc = dir_ / "docs" / "RESULTS.md";
+  const test::CliResult r = test::run_cli("-q experiment all" + common(out, 8) + " --euroc none --runs 1 " +
+                                          "--repetitions 1 --pairs 1 --features 250 --doc " + quoted(doc));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string text = read_text(doc);
+  for (const char* part : {"## Table 1", "## Table 2", "## Table 3", "Machine:", "experiment all", "fr1_desk2",
+                           "(results/sampling_points.svg)"}) {
+    EXPECT_NE(text.find(part), std::string::npos) << part;
+  }
+  EXPECT_TRUE(fs::exists(doc.parent_path() / "results" / "sampling_points.svg"));
+  EXPECT_TRUE(fs::exists(out / "matching" / "matching.csv"));
+  EXPECT_TRUE(fs::exists(out / "keyframes" / "keyframes.csv"));
+}
+
+TEST(ExperimentCliErrors, MissingDatasetFolderExitsTwoNamingIt) {
+  const fs::path missing = test::fresh_test_dir("fleetslam_test_experiment_cli") / "no_such_sequence";
+  const test::CliResult r = test::run_cli("experiment matching --tum " + quoted(missing) + " --euroc none --scenario none");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(missing.string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no such folder"), std::string::npos) << r.output;
+}
+
+TEST(ExperimentCliErrors, BadSettingsExitTwo) {
+  const test::CliResult r = test::run_cli("experiment keyframes --doc x.md --tum none --euroc none --scenario none");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--doc"), std::string::npos) << r.output;
+  const test::CliResult f = test::run_cli("experiment matching --features 3 --tum none --euroc none --scenario none");
+  EXPECT_EQ(f.exit_code, 2) << f.output;
+  EXPECT_NE(f.output.find("--features"), std::string::npos) << f.output;
+}
+
+}  // namespace
+}  // namespace fleetslam

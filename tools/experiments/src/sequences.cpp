@@ -1,0 +1,209 @@
+#include "fleetslam/experiments/sequences.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include <spdlog/logger.h>
+
+#include "fleetslam/core/config.hpp"
+#include "fleetslam/core/error.hpp"
+#include "fleetslam/experiments/table.hpp"
+#include "fleetslam/runner/run_config.hpp"
+#include "fleetslam/sim/scenario.hpp"
+#include "fleetslam/sim/world.hpp"
+
+namespace fleetslam::experiments {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kRenderedFile = "rendered.txt";
+constexpr double kRgbdThDepth = 40.0;  // ORB-SLAM3's TUM examples (as `fleetslam generate` writes)
+
+std::string read_whole(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void require_folder(const fs::path& folder, const std::string& what) {
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) throw InputError(folder.string(), what + ": no such folder");
+}
+
+void require_file(const fs::path& file, const std::string& what) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), what + ": no such file");
+}
+
+// What identifies a rendering: the scenario's text, its scene's text and the duration.
+std::string rendering_key(const fs::path& scenario, const sim::ScenarioConfig& world, double duration_s) {
+  return "scenario: " + fs::absolute(scenario).lexically_normal().string() + "\nduration_s: " + fixed(duration_s, 3) +
+         "\n--- scenario\n" + read_whole(scenario) + "\n--- scene\n" + read_whole(world.scene_path()) + "\n";
+}
+
+core::SensorRig tum_rig(core::SensorRig rig) {
+  rig.mode = core::SensorMode::kRgbd;
+  rig.cam1.reset();
+  rig.T_cam0_cam1 = Eigen::Isometry3d::Identity();
+  rig.imu.reset();
+  return rig;
+}
+
+// One scenario's world stepped to its end; each robot with a depth camera written as a TUM sequence.
+std::vector<std::string> render_scenario(const sim::ScenarioConfig& world_config, const fs::path& dir,
+                                         const core::Logger& logger) {
+  sim::World world(world_config, logger);
+  std::vector<std::size_t> robots;
+  std::vector<std::unique_ptr<core::FrameSink>> sinks;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < world.robot_count(); ++i) {
+    const sim::RobotConfig& robot = world.robot_config(i);
+    if (!robot.camera.enabled || !robot.camera.depth) continue;
+    const core::SensorRig rig = tum_rig(world.sensor_rig(i));
+    sinks.push_back(core::make_dataset_writer(dir / robot.name, core::DatasetFormat::kTumRgbd, rig, logger));
+    core::OrbSlamSettings settings;
+    settings.rig = rig;
+    settings.th_depth = kRgbdThDepth;
+    core::write_orbslam_settings(dir / robot.name / "orbslam_settings.yaml", settings);
+    robots.push_back(i);
+    names.push_back(robot.name);
+  }
+  while (!world.finished()) {
+    for (core::SensorFrame& frame : world.step()) {
+      for (std::size_t k = 0; k < robots.size(); ++k) {
+        if (robots[k] == static_cast<std::size_t>(frame.robot_id)) sinks[k]->write(frame);
+      }
+    }
+  }
+  for (auto& sink : sinks) sink->close();
+  return names;
+}
+
+}  // namespace
+
+void check_data_sources(const DataSourcesConfig& config) {
+  if (!config.tum_dir.empty()) {
+    require_folder(config.tum_dir, "TUM RGB-D sequence");
+    require_file(config.tum_dir / "rgb.txt", "TUM RGB-D sequence list");
+    if (!config.tum_calibration.empty()) require_file(config.tum_calibration, "TUM calibration");
+  }
+  if (!config.euroc_dir.empty()) require_folder(config.euroc_dir, "EuRoC sequence");
+  for (const fs::path& scenario : config.scenarios) require_file(scenario, "scenario");
+  if (!(config.synthetic_duration_s > 0.0 && config.synthetic_duration_s <= 3600.0)) {
+    throw InputError("--synthetic-duration", "must be in (0, 3600] seconds");
+  }
+}
+
+std::vector<SequenceSpec> real_sequences(const DataSourcesConfig& config) {
+  std::vector<SequenceSpec> sequences;
+  if (!config.tum_dir.empty()) {
+    SequenceSpec tum;
+    tum.name = "tum/" + config.tum_dir.filename().string();
+    tum.origin = "real";
+    tum.folder = config.tum_dir;
+    tum.format = core::DatasetFormat::kTumRgbd;
+    tum.calibration = config.tum_calibration;
+    sequences.push_back(tum);
+  }
+  if (!config.euroc_dir.empty()) {
+    SequenceSpec euroc;
+    euroc.name = "euroc/" + config.euroc_dir.filename().string();
+    euroc.origin = "real";
+    euroc.folder = config.euroc_dir;
+    euroc.format = core::DatasetFormat::kEuroc;
+    euroc.stereo = true;
+    const fs::path leftcam = config.euroc_dir / "groundtruth_leftcam_tum.txt";
+    std::error_code ec;
+    if (fs::is_regular_file(leftcam, ec)) euroc.groundtruth = leftcam;
+    sequences.push_back(euroc);
+  }
+  return sequences;
+}
+
+std::vector<SequenceSpec> render_synthetic(const DataSourcesConfig& config, const core::Logger& logger) {
+  std::vector<SequenceSpec> sequences;
+  for (const fs::path& scenario_file : config.scenarios) {
+    sim::ScenarioConfig world = runner::load_run_scenario(scenario_file).world;
+    world.duration_s = config.synthetic_duration_s;
+    const std::string stem = scenario_file.stem().string();
+    const fs::path dir = config.synthetic_dir / (stem + "_" + fixed(config.synthetic_duration_s, 1) + "s");
+    const std::string key = rendering_key(scenario_file, world, config.synthetic_duration_s);
+    std::error_code ec;
+    if (!(fs::exists(dir / kRenderedFile, ec) && read_whole(dir / kRenderedFile) == key)) {
+      logger->info("rendering {} ({} s) into {}", scenario_file.string(), config.synthetic_duration_s, dir.string());
+      fs::remove_all(dir, ec);
+      fs::create_directories(dir, ec);
+      if (ec) throw InputError(dir.string(), "cannot create the folder: " + ec.message());
+      render_scenario(world, dir, logger);
+      write_text(dir / kRenderedFile, key);
+    } else {
+      logger->info("reusing the rendering of {} in {}", scenario_file.string(), dir.string());
+    }
+    for (const sim::RobotConfig& robot : world.robots) {
+      if (!robot.camera.enabled || !robot.camera.depth) continue;
+      SequenceSpec spec;
+      spec.name = stem + "/" + robot.name;
+      spec.origin = "synthetic";
+      spec.folder = dir / robot.name;
+      spec.format = core::DatasetFormat::kTumRgbd;
+      spec.calibration = dir / robot.name / "orbslam_settings.yaml";
+      spec.scenario = scenario_file.string();
+      sequences.push_back(spec);
+    }
+  }
+  return sequences;
+}
+
+std::optional<core::OrbSlamSettings> sequence_settings(const SequenceSpec& spec) {
+  if (spec.calibration.empty()) return std::nullopt;
+  return core::read_orbslam_settings(spec.calibration);
+}
+
+std::unique_ptr<core::FrameSource> open_sequence(const SequenceSpec& spec, std::int64_t start, std::int64_t stop,
+                                                 const core::Logger& logger) {
+  core::DatasetConfig config;
+  config.load_imu = false;
+  config.stereo = spec.stereo;
+  config.start_index = start;
+  config.stop_index = stop;
+  config.groundtruth_file = spec.groundtruth.string();
+  if (const auto settings = sequence_settings(spec)) {
+    config.rig = settings->rig;
+    config.rig_source = spec.calibration.string();
+  }
+  return core::open_dataset(spec.folder, spec.format, config, logger);
+}
+
+slam::AgentConfig agent_config_for(const SequenceSpec& spec) {
+  slam::AgentConfig config;
+  if (const auto settings = sequence_settings(spec)) {
+    slam::OrbExtractorConfig& orb = config.frontend.orb;
+    orb.num_features = settings->orb.num_features;
+    orb.scale_factor = settings->orb.scale_factor;
+    orb.num_levels = settings->orb.num_levels;
+    orb.ini_fast_threshold = settings->orb.ini_fast_threshold;
+    orb.min_fast_threshold = settings->orb.min_fast_threshold;
+    if (settings->th_depth > 0.0) config.frontend.close_depth_baselines = settings->th_depth;
+  }
+  config.sensor = spec.stereo ? slam::AgentSensor::kStereo : slam::AgentSensor::kRgbd;
+  return config;
+}
+
+core::Trajectory groundtruth_for(const SequenceSpec& spec, const core::FrameSource& source,
+                                 const core::Trajectory& per_frame) {
+  const std::string& file = source.info().groundtruth_file;
+  const bool camera_poses = !spec.groundtruth.empty() || source.info().format == core::DatasetFormat::kTumRgbd;
+  if (!file.empty() && camera_poses) {
+    core::TrajectoryReadOptions options;
+    options.duplicate_stamps = core::DuplicateStamps::kKeepLast;
+    return core::read_trajectory_file(file, options).trajectory;
+  }
+  return per_frame;
+}
+
+}  // namespace fleetslam::experiments
