@@ -36,10 +36,9 @@
 #include <random>
 #include <vector>
 
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
-#include <opencv2/flann.hpp>
+#include <opencv2/core/utility.hpp>
 
+#include "fleetslam/experiments/matchers.hpp"
 #include "fleetslam/slam/matcher.hpp"
 
 namespace {
@@ -51,17 +50,12 @@ using fleetslam::slam::MatchResult;
 using fleetslam::slam::MatcherConfig;
 
 constexpr double kCorrectPx = 3.0;  // PAPER.md: consistent with the true pose and depth within 3 px
-constexpr float kLoweRatio = 0.8F;  // for the OpenCV matchers
 
 fleetslam::core::PinholeCamera tum_camera() { return {640, 480, 517.3, 516.5, 318.6, 255.3}; }
 
-struct Pair {
-  Frame a;
-  Frame b;
-  FeaturePoints p_a;
-  FeaturePoints p_b;
-  Eigen::Isometry3d T_a_b_true = Eigen::Isometry3d::Identity();
-  Eigen::Isometry3d T_a_b_predicted = Eigen::Isometry3d::Identity();
+// The frames, points and transforms as `fleetslam experiment matching` takes them (a, b, p_a, p_b,
+// T_a_b_true, T_a_b_predicted), with the synthetic scene's truth.
+struct Pair : fleetslam::experiments::MatchPair {
   std::vector<Eigen::Vector3d> truth_b;  // ground-truth point of each B feature, B's camera frame
   std::vector<int> id_a;                 // ground-truth point index of each feature
   std::vector<int> id_b;
@@ -216,44 +210,22 @@ void report(benchmark::State& state, const Pair& pair, const std::vector<Match>&
   state.counters["id_precision"] = matches.empty() ? 0.0 : static_cast<double>(same_point) / static_cast<double>(matches.size());
 }
 
-// B's descriptors against A's, two nearest neighbours, Lowe's ratio (a lone neighbour is kept).
-std::vector<Match> ratio_matches(const std::vector<std::vector<cv::DMatch>>& knn) {
-  std::vector<Match> matches;
-  for (const auto& nn : knn) {
-    if (nn.empty()) continue;
-    if (nn.size() >= 2 && nn[0].distance > kLoweRatio * nn[1].distance) continue;
-    matches.push_back({nn[0].trainIdx, nn[0].queryIdx, static_cast<int>(nn[0].distance)});
-  }
-  return matches;
-}
-
-std::vector<Match> run_opencv(cv::DescriptorMatcher& matcher, const Pair& pair) {
-  std::vector<std::vector<cv::DMatch>> knn;
-  matcher.knnMatch(pair.b.descriptors, pair.a.descriptors, knn, 2);
-  return ratio_matches(knn);
-}
-
-void BM_BruteForceOpenCV(benchmark::State& state) {
+// The OpenCV matchers as the experiment runs them (tools/experiments/matchers.hpp): B's descriptors against
+// A's, two nearest neighbours, Lowe's ratio 0.8; FLANN builds its LSH index over A in every match, as between
+// two new frames.
+void run_opencv(benchmark::State& state, fleetslam::experiments::MatcherKind kind) {
   const Pair& pair = pair_for(state);
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  const fleetslam::experiments::MatchSettings settings;
   std::vector<Match> matches;
   for (auto _ : state) {
-    matches = run_opencv(matcher, pair);
+    matches = fleetslam::experiments::run_matcher(kind, pair, settings);
     benchmark::DoNotOptimize(matches.data());
   }
   report(state, pair, matches);
 }
 
-void BM_FlannLsh(benchmark::State& state) {
-  const Pair& pair = pair_for(state);
-  std::vector<Match> matches;
-  for (auto _ : state) {  // the LSH index over A is built in every match, as between two new frames
-    cv::FlannBasedMatcher matcher(cv::makePtr<cv::flann::LshIndexParams>(12, 20, 2));
-    matches = run_opencv(matcher, pair);
-    benchmark::DoNotOptimize(matches.data());
-  }
-  report(state, pair, matches);
-}
+void BM_BruteForceOpenCV(benchmark::State& state) { run_opencv(state, fleetslam::experiments::MatcherKind::kBruteForceOpenCv); }
+void BM_FlannLsh(benchmark::State& state) { run_opencv(state, fleetslam::experiments::MatcherKind::kFlannLsh); }
 
 void BM_BruteForceFleetslam(benchmark::State& state) {
   const Pair& pair = pair_for(state);
