@@ -24,6 +24,7 @@ core::Progress make_progress(std::size_t total, const std::string& label, const 
 
 // Shared with the runner library: writing text outputs, timings and loop closures as JSON.
 using runner::loop_event_json;
+using runner::loop_rejections_json;
 using runner::timing_stats_json;
 using runner::write_text_file;
 

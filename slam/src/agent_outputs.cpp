@@ -39,6 +39,7 @@ MapStats Agent::map_stats() const {
   for (const auto& entry : s.map.keyframes()) components.insert(entry.second.component);
   stats.components = static_cast<int>(components.size());
   stats.dense_points = s.dense.stats().points;
+  if (s.loop_closer) stats.loop_rejections = s.loop_closer->rejections();
   return stats;
 }
 

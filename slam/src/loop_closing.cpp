@@ -4,6 +4,7 @@
 #include "fleetslam/slam/loop_closing.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <random>
 
@@ -11,6 +12,7 @@
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
 
 namespace fleetslam::slam {
 
@@ -43,6 +45,41 @@ Eigen::Isometry3d rigid_fit(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.matrix() = Eigen::umeyama(from, to, false);
   return T;
+}
+
+// Guided matching of `points` into frame f (whose map_points may hold seed matches) at T_cam_world, then
+// pose-only optimisation on every match.
+PoseResult refine_on_points(Frame f, const std::vector<MapPointId>& points, const Eigen::Isometry3d& T_cw,
+                            const Map& map, const ProjectionSearchConfig& search) {
+  std::vector<ProjectedPoint> projected;
+  for (MapPointId id : points) {
+    if (auto p = project_map_point(*map.point(id), f, T_cw, search)) projected.push_back(*p);
+  }
+  search_by_projection(f, projected, map, search);
+  std::vector<PoseObservation> observations;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const MapPoint* p = f.map_points[i] == kNoMapPoint ? nullptr : map.point(f.map_points[i]);
+    if (p == nullptr) continue;
+    PoseObservation o;
+    o.p_world = p->position;
+    o.obs.uv = f.uv[i];
+    o.obs.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
+    o.obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
+    observations.push_back(o);
+  }
+  return optimize_pose(f.camera, f.bf, observations, T_cw, OptimizerConfig{});
+}
+
+// Length of the path through the component's keyframes (in id order, so in time) from `from` to `to`.
+double path_length_m(const Map& map, int component, KeyframeId from, KeyframeId to) {
+  double length = 0.0;
+  const Keyframe* previous = nullptr;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.component != component || id < from || id > to) continue;
+    if (previous != nullptr) length += (kf.center() - previous->center()).norm();
+    previous = &kf;
+  }
+  return length;
 }
 
 }  // namespace
@@ -117,7 +154,7 @@ std::vector<LoopCloser::Candidate> LoopCloser::detect(const Keyframe& current, c
 }
 
 std::optional<LoopCloser::Verified> LoopCloser::verify(const Keyframe& current, const Candidate& candidate,
-                                                       const Map& map) const {
+                                                       const Map& map) {
   const Keyframe& loop = *map.keyframe(candidate.id);
   const std::vector<Match> matches =
       search_by_bow(loop.frame, loop.bow_features, features_with_points(loop, map), current.frame,
@@ -174,6 +211,12 @@ std::optional<LoopCloser::Verified> LoopCloser::verify(const Keyframe& current, 
   std::vector<int> refined_inliers = inliers_of(refined);
   if (refined_inliers.size() >= best.size()) best = std::move(refined_inliers), best_T = refined;
   v.ransac_inliers = static_cast<int>(best.size());
+  // The drift bound, checked on the RANSAC pose before the costlier guided matching (and again on the
+  // refined pose by the caller).
+  if (const Plausibility early = plausible(current, best_T * current.T_world_cam, loop.id, map); !early.ok) {
+    refuse_implausible(current.id, v, early);
+    return std::nullopt;
+  }
 
   // Guided matching: the candidate's neighbourhood points projected into the keyframe at the corrected pose.
   std::set<MapPointId> seen;
@@ -190,30 +233,55 @@ std::optional<LoopCloser::Verified> LoopCloser::verify(const Keyframe& current, 
     const auto& m = matches[static_cast<std::size_t>(k)];
     f.map_points[static_cast<std::size_t>(m.b)] = loop.frame.map_points[static_cast<std::size_t>(m.a)];
   }
-  const Eigen::Isometry3d T_cw = (best_T * current.T_world_cam).inverse();
-  std::vector<ProjectedPoint> projected;
-  for (MapPointId id : v.loop_points) {
-    if (auto p = project_map_point(*map.point(id), f, T_cw, config_.search)) projected.push_back(*p);
-  }
-  search_by_projection(f, projected, map, config_.search);
-  std::vector<PoseObservation> observations;
-  for (std::size_t i = 0; i < f.size(); ++i) {
-    const MapPoint* p = f.map_points[i] == kNoMapPoint ? nullptr : map.point(f.map_points[i]);
-    if (p == nullptr) continue;
-    PoseObservation o;
-    o.p_world = p->position;
-    o.obs.uv = f.uv[i];
-    o.obs.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
-    o.obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
-    observations.push_back(o);
-  }
-  const PoseResult pose = optimize_pose(f.camera, f.bf, observations, T_cw, OptimizerConfig{});
+  const PoseResult pose = refine_on_points(std::move(f), v.loop_points, (best_T * current.T_world_cam).inverse(), map,
+                                           config_.search);
   v.inliers = pose.inliers;
   logger_->debug("loop candidate {} for keyframe {}: score {:.3f}, {} BoW matches, {} RANSAC inliers, {} refined inliers",
                  loop.id, current.id, v.score, v.bow_matches, v.ransac_inliers, v.inliers);
   if (!pose.ok || v.inliers < config_.min_loop_inliers) return std::nullopt;
   v.T_world_cam = pose.T_cam_world.inverse();
   return v;
+}
+
+LoopCloser::Plausibility LoopCloser::plausible(const Keyframe& current, const Eigen::Isometry3d& T_world_cam_corrected,
+                                               KeyframeId loop, const Map& map) const {
+  Plausibility p;
+  p.path_m = path_length_m(map, current.component, loop, current.id);
+  p.translation_m = (T_world_cam_corrected.translation() - current.T_world_cam.translation()).norm();
+  p.rotation_deg = core::rotation_angle_rad(T_world_cam_corrected.linear() * current.T_world_cam.linear().transpose()) *
+                   (180.0 / 3.14159265358979323846);
+  p.bound_m = config_.max_correction_floor_m + config_.max_correction_per_m * p.path_m;
+  p.bound_deg = config_.max_correction_floor_deg + config_.max_correction_deg_per_m * p.path_m;
+  const bool translation_ok = config_.max_correction_floor_m < 0.0 || config_.max_correction_per_m < 0.0 ||
+                              p.translation_m <= p.bound_m;
+  const bool rotation_ok = config_.max_correction_floor_deg < 0.0 || config_.max_correction_deg_per_m < 0.0 ||
+                           p.rotation_deg <= p.bound_deg;
+  p.ok = translation_ok && rotation_ok;
+  return p;
+}
+
+void LoopCloser::refuse_implausible(KeyframeId current, const Verified& loop, const Plausibility& p) {
+  ++rejections_.implausible_correction;
+  logger_->info("loop refused: keyframe {} with {} (score {:.3f}, {} RANSAC inliers) would move it {:.3f} m / {:.1f} deg "
+                "after {:.2f} m travelled (bound {:.3f} m / {:.1f} deg)",
+                current, loop.loop, loop.score, loop.ransac_inliers, p.translation_m, p.rotation_deg, p.path_m, p.bound_m,
+                p.bound_deg);
+}
+
+int LoopCloser::confirmations(const Keyframe& current, const Verified& loop, const Map& map) const {
+  const Eigen::Isometry3d correction = loop.T_world_cam * current.T_world_cam.inverse();
+  int confirmed = 0;
+  for (KeyframeId id : current.best_covisible(config_.confirm_neighbours)) {
+    const Keyframe* n = map.keyframe(id);
+    if (n == nullptr) continue;
+    Frame f = n->frame;
+    f.map_points.assign(f.size(), kNoMapPoint);
+    const PoseResult pose = refine_on_points(std::move(f), loop.loop_points, (correction * n->T_world_cam).inverse(), map,
+                                             config_.search);
+    logger_->debug("loop {} of keyframe {}: neighbour {} finds {} inliers", loop.loop, current.id, id, pose.inliers);
+    if (pose.ok && pose.inliers >= config_.min_confirm_inliers) ++confirmed;
+  }
+  return confirmed;
 }
 
 std::optional<LoopEvent> LoopCloser::detect_and_correct(KeyframeId current, Map& map, const KeyframeDatabase& database,
@@ -223,6 +291,22 @@ std::optional<LoopEvent> LoopCloser::detect_and_correct(KeyframeId current, Map&
   for (const Candidate& candidate : detect(*kf, map, database)) {
     const std::optional<Verified> loop = verify(*kf, candidate, map);
     if (!loop) continue;
+    const Plausibility plausibility = plausible(*kf, loop->T_world_cam, loop->loop, map);
+    if (!plausibility.ok) {
+      refuse_implausible(current, *loop, plausibility);
+      continue;
+    }
+    const int neighbours = static_cast<int>(kf->best_covisible(config_.confirm_neighbours).size());
+    const int needed = std::min(config_.confirmations, neighbours);
+    const int confirmed = needed > 0 ? confirmations(*kf, *loop, map) : 0;
+    if (confirmed < needed) {
+      ++rejections_.unconfirmed;
+      logger_->info("loop refused: keyframe {} with {} (score {:.3f}, {} inliers, correction {:.3f} m / {:.1f} deg) "
+                    "confirmed by {} of {} neighbours, {} needed",
+                    current, loop->loop, loop->score, loop->inliers, plausibility.translation_m, plausibility.rotation_deg,
+                    confirmed, neighbours, needed);
+      continue;
+    }
     LoopEvent event;
     event.current = current;
     event.loop = loop->loop;
@@ -232,13 +316,16 @@ std::optional<LoopEvent> LoopCloser::detect_and_correct(KeyframeId current, Map&
     event.bow_matches = loop->bow_matches;
     event.ransac_inliers = loop->ransac_inliers;
     event.inliers = loop->inliers;
+    event.path_m = plausibility.path_m;
+    event.camera_shift_m = plausibility.translation_m;
+    event.confirmations = confirmed;
     correct(current, *loop, map, event, moved);
     last_loop_ = current;
     groups_.clear();
-    logger_->info("loop closed: keyframe {} with {} (score {:.3f}, {} inliers, correction {:.3f} m), {} points fused, "
-                  "{} keyframes moved",
-                  event.current, event.loop, event.score, event.inliers, event.correction.translation().norm(),
-                  event.fused_points, event.moved_keyframes);
+    logger_->info("loop closed: keyframe {} with {} (score {:.3f}, {} inliers, correction {:.3f} m / {:.1f} deg after "
+                  "{:.2f} m, {} neighbours confirmed), {} points fused, {} keyframes moved",
+                  event.current, event.loop, event.score, event.inliers, plausibility.translation_m,
+                  plausibility.rotation_deg, event.path_m, confirmed, event.fused_points, event.moved_keyframes);
     return event;
   }
   return std::nullopt;

@@ -45,14 +45,17 @@ inline cv::Mat wall_texture(int width, int height, std::uint32_t seed) {
 
 class SyntheticRoom {
  public:
-  // Room [min, max] in world coordinates (metres); texel size in metres.
-  SyntheticRoom(Eigen::Vector3d min, Eigen::Vector3d max, std::uint32_t seed, double texel_m = 0.004)
-      : min_(std::move(min)), max_(std::move(max)), texel_m_(texel_m) {
+  // Room [min, max] in world coordinates (metres); texel size in metres. With repeat_z_m > 0 every
+  // surface's texture repeats along z with that period (a corridor of identical bays: perceptual aliasing).
+  SyntheticRoom(Eigen::Vector3d min, Eigen::Vector3d max, std::uint32_t seed, double texel_m = 0.004,
+                double repeat_z_m = 0.0)
+      : min_(std::move(min)), max_(std::move(max)), texel_m_(texel_m), repeat_z_m_(repeat_z_m) {
     for (int wall = 0; wall < 6; ++wall) {
       const int axis = wall / 2;
       const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-      const int w = static_cast<int>(std::ceil((max_[a] - min_[a]) / texel_m)) + 2;
-      const int h = static_cast<int>(std::ceil((max_[b] - min_[b]) / texel_m)) + 2;
+      const auto extent = [&](int k) { return k == 2 && repeat_z_m_ > 0.0 ? repeat_z_m_ : max_[k] - min_[k]; };
+      const int w = static_cast<int>(std::ceil(extent(a) / texel_m)) + 2;
+      const int h = static_cast<int>(std::ceil(extent(b) / texel_m)) + 2;
       textures_[static_cast<std::size_t>(wall)] = wall_texture(w, h, seed + static_cast<std::uint32_t>(wall) * 7919u);
     }
   }
@@ -96,8 +99,12 @@ class SyntheticRoom {
     const int axis = wall / 2;
     const int a = (axis + 1) % 3, b = (axis + 2) % 3;
     const cv::Mat& tex = textures_[static_cast<std::size_t>(wall)];
-    const double x = std::clamp((p[a] - min_[a]) / texel_m_, 0.0, tex.cols - 1.001);
-    const double y = std::clamp((p[b] - min_[b]) / texel_m_, 0.0, tex.rows - 1.001);
+    const auto coordinate = [&](int k) {
+      const double offset = p[k] - min_[k];
+      return k == 2 && repeat_z_m_ > 0.0 ? offset - repeat_z_m_ * std::floor(offset / repeat_z_m_) : offset;
+    };
+    const double x = std::clamp(coordinate(a) / texel_m_, 0.0, tex.cols - 1.001);
+    const double y = std::clamp(coordinate(b) / texel_m_, 0.0, tex.rows - 1.001);
     const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
     const double fx = x - x0, fy = y - y0;
     const auto at = [&](int r, int col) { return static_cast<double>(tex.at<std::uint8_t>(r, col)); };
@@ -108,6 +115,7 @@ class SyntheticRoom {
 
   Eigen::Vector3d min_, max_;
   double texel_m_;
+  double repeat_z_m_;
   std::array<cv::Mat, 6> textures_;
 };
 

@@ -31,8 +31,13 @@ nlohmann::json loop_event_json(const slam::LoopEvent& e) {
   return {{"t_s", core::ns_to_seconds(e.t_ns)}, {"keyframe", e.current}, {"loop_keyframe", e.loop}, {"score", e.score},
           {"bow_matches", e.bow_matches}, {"ransac_inliers", e.ransac_inliers}, {"inliers", e.inliers},
           {"fused_points", e.fused_points}, {"moved_keyframes", e.moved_keyframes}, {"global_ba", e.global_ba},
-          {"correction_m", e.correction.translation().norm()},
+          {"correction_m", e.correction.translation().norm()}, {"camera_shift_m", e.camera_shift_m},
+          {"path_m", e.path_m}, {"confirmations", e.confirmations},
           {"correction_deg", core::rotation_angle_rad(e.correction.linear()) * 180.0 / 3.14159265358979323846}};
+}
+
+nlohmann::json loop_rejections_json(const slam::LoopRejections& r) {
+  return {{"implausible_correction", r.implausible_correction}, {"unconfirmed", r.unconfirmed}};
 }
 
 }  // namespace fleetslam::runner

@@ -152,6 +152,7 @@ struct MapStats {
   std::size_t points = 0;
   int components = 0;
   std::size_t dense_points = 0;
+  LoopRejections loop_rejections;  // verified loop candidates refused by the guards
 };
 
 class Agent {

@@ -9,6 +9,12 @@
 //            pairs (Umeyama/Horn on 3 pairs, inliers by reprojection in both keyframes), then the
 //            candidate's neighbourhood points projected into the keyframe at the corrected pose and the
 //            pose refined on them (pose-only optimisation);
+//   guard    two checks against false loops (repeated textures in different rooms look alike to BoW and
+//            even to a 3D-3D RANSAC over a flat poster): the correction must be a drift the agent could
+//            have accumulated over the path it travelled since the loop keyframe (a bound that grows with
+//            that path), and the correction must hold for the keyframe's covisible neighbours too (loop
+//            points projected into each at its corrected pose, pose refined, inliers counted), as
+//            ORB-SLAM3 confirms a place in the covisible keyframes before it closes a loop;
 //   correct  the keyframe and its covisible neighbours move rigidly to the corrected pose with their
 //            points; the loop points are fused into them (duplicates replaced); new covisibility links
 //            across the loop are the loop edges;
@@ -49,6 +55,17 @@ struct LoopClosingConfig {
   double ransac_chi2 = 9.21;       // reprojection chi2 (2 dof, 99 %) in both keyframes
   int min_ransac_inliers = 20;
   int min_loop_inliers = 40;       // inliers of the refined pose against the candidate's neighbourhood
+  // Drift bound: a correction of more than floor + per-metre * (path travelled since the loop keyframe)
+  // is refused as implausible (< 0 turns a bound off).
+  double max_correction_floor_m = 0.1;
+  double max_correction_per_m = 0.1;      // translation drift per metre travelled
+  double max_correction_floor_deg = 5.0;
+  double max_correction_deg_per_m = 2.0;  // rotation drift per metre travelled
+  // Confirmation: of the keyframe's best `confirm_neighbours` covisible keyframes, at least
+  // min(confirmations, their number) must find min_confirm_inliers loop points at their corrected pose.
+  int confirm_neighbours = 3;
+  int confirmations = 2;            // 0 turns the check off
+  int min_confirm_inliers = 30;
   int strong_covisibility = 100;   // shared points for a covisibility edge of the essential graph
   int pose_graph_iterations = 20;
   bool global_ba = true;
@@ -70,6 +87,13 @@ struct LoopClosingConfig {
     v("ransac_chi2", ransac_chi2, core::Limits<double>{0.1, 1000.0});
     v("min_ransac_inliers", min_ransac_inliers, core::Limits<int>{3, 100000});
     v("min_loop_inliers", min_loop_inliers, core::Limits<int>{3, 100000});
+    v("max_correction_floor_m", max_correction_floor_m);
+    v("max_correction_per_m", max_correction_per_m);
+    v("max_correction_floor_deg", max_correction_floor_deg);
+    v("max_correction_deg_per_m", max_correction_deg_per_m);
+    v("confirm_neighbours", confirm_neighbours, core::Limits<int>{0, 100});
+    v("confirmations", confirmations, core::Limits<int>{0, 100});
+    v("min_confirm_inliers", min_confirm_inliers, core::Limits<int>{3, 100000});
     v("strong_covisibility", strong_covisibility, core::Limits<int>{1, 100000});
     v("pose_graph_iterations", pose_graph_iterations, core::Limits<int>{1, 1000});
     v("global_ba", global_ba);
@@ -94,6 +118,15 @@ struct LoopEvent {
   int fused_points = 0;
   int moved_keyframes = 0;    // by the correction and the essential graph
   bool global_ba = false;     // a global BA followed (ok)
+  double path_m = 0.0;        // travelled between the loop keyframe and the current one
+  double camera_shift_m = 0.0;  // how far the correction moves the current keyframe's camera centre
+  int confirmations = 0;      // covisible neighbours that confirmed the correction
+};
+
+// Why verified loop candidates were refused (counts over the agent's run).
+struct LoopRejections {
+  int implausible_correction = 0;  // beyond the drift bound
+  int unconfirmed = 0;             // too few neighbours confirmed it
 };
 
 // A global BA over one component, with the map ids behind its indices.
@@ -123,6 +156,7 @@ class LoopCloser {
                        std::set<KeyframeId>& moved) const;
 
   const LoopClosingConfig& config() const { return config_; }
+  const LoopRejections& rejections() const { return rejections_; }
 
  private:
   struct Candidate {
@@ -142,15 +176,29 @@ class LoopCloser {
     int inliers = 0;
     std::vector<MapPointId> loop_points;  // the candidate's neighbourhood points
   };
+  struct Plausibility {
+    bool ok = true;
+    double path_m = 0.0;
+    double translation_m = 0.0;
+    double rotation_deg = 0.0;
+    double bound_m = 0.0;
+    double bound_deg = 0.0;
+  };
 
   std::vector<Candidate> detect(const Keyframe& current, const Map& map, const KeyframeDatabase& database);
-  std::optional<Verified> verify(const Keyframe& current, const Candidate& candidate, const Map& map) const;
+  std::optional<Verified> verify(const Keyframe& current, const Candidate& candidate, const Map& map);
+  // The drift bound for moving `current` to T_world_cam_corrected by a loop with keyframe `loop`.
+  Plausibility plausible(const Keyframe& current, const Eigen::Isometry3d& T_world_cam_corrected, KeyframeId loop,
+                         const Map& map) const;
+  void refuse_implausible(KeyframeId current, const Verified& loop, const Plausibility& plausibility);
+  int confirmations(const Keyframe& current, const Verified& loop, const Map& map) const;
   void correct(KeyframeId current, const Verified& loop, Map& map, LoopEvent& event, std::set<KeyframeId>& moved) const;
 
   LoopClosingConfig config_;
   core::Logger logger_;
   std::vector<Group> groups_;   // consistent groups of the previous keyframe
   KeyframeId last_loop_ = -1;   // keyframe of the last closed loop
+  LoopRejections rejections_;
 };
 
 // The essential graph: a Ceres pose graph over `T_world_cam` (by keyframe id), the edges' relative

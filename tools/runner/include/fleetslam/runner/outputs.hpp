@@ -20,5 +20,7 @@ nlohmann::json timing_stats_json(std::vector<double> values_ms);
 
 // A loop closure as metrics.json reports it: keyframes, time, score, matches, the correction's size.
 nlohmann::json loop_event_json(const slam::LoopEvent& event);
+// Verified loop candidates the guards refused, by reason.
+nlohmann::json loop_rejections_json(const slam::LoopRejections& rejections);
 
 }  // namespace fleetslam::runner
