@@ -1,5 +1,6 @@
 #include "fleetslam/central/registration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -86,9 +87,10 @@ Fitness fitness(const std::vector<Eigen::Vector3f>& source, const KdTree& target
   return f;
 }
 
-// Gauss-Newton on SE(3), left perturbation T <- exp(xi) T with xi = (omega, v):
-// d_i(xi) = b_i - exp(xi) p_i ~ d_i + [p_i]x omega - v, p_i = T a_i, so J_i = [[p_i]x, -I] and the
-// normal equations sum J_i^T M_i J_i xi = -sum J_i^T M_i d_i with M_i = (C_i^B + R C_i^A R^T)^-1.
+// Gauss-Newton on SE(3), left perturbation about the source centroid c, p -> exp(omega)(p - c) + c + v,
+// with xi = (radius * omega, v): d_i(xi) = b_i - p_i' ~ d_i + [p_i - c]x omega - v, p_i = T a_i, so
+// J_i = [[p_i - c]x / radius, -I] and the normal equations sum J_i^T M_i J_i xi = -sum J_i^T M_i d_i with
+// M_i = (C_i^B + R C_i^A R^T)^-1, solved in their eigenbasis (see the header on degenerate directions).
 RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
                                 const KdTree& target_tree, const Eigen::Isometry3d& guess,
                                 const RegistrationConfig& config) {
@@ -98,6 +100,15 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
   const std::vector<Eigen::Matrix3d> target_cov =
       plane_covariances(target, target_tree, config.covariance_neighbours, config.plane_epsilon);
   const auto max_distance = static_cast<float>(config.max_correspondence_distance_m);
+
+  // The centroid of the source set (at the guess) and its RMS radius: the point and scale the update is
+  // parametrised about (see the header).
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& a : source) centroid += guess * a.cast<double>();
+  centroid /= static_cast<double>(source.size());
+  double radius_sq = 0.0;
+  for (const Eigen::Vector3f& a : source) radius_sq += (guess * a.cast<double>() - centroid).squaredNorm();
+  const double radius_m = std::max(std::sqrt(radius_sq / static_cast<double>(source.size())), 1e-3);
 
   RegistrationResult result;
   result.status = "max iterations";
@@ -115,7 +126,8 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
       ++correspondences;
       const Eigen::Vector3d d = target[n.index].cast<double>() - p;
       const Eigen::Matrix3d M = (target_cov[n.index] + R * source_cov[i] * R.transpose()).inverse();
-      const Eigen::Matrix3d S = skew(p);
+      // Rotation about the centroid, scaled by the radius: J_i = [[p_i - c]x / radius, -I].
+      const Eigen::Matrix3d S = skew(p - centroid) / radius_m;
       const Eigen::Matrix3d StM = S.transpose() * M;
       H.block<3, 3>(0, 0) += StM * S;
       H.block<3, 3>(0, 3) -= StM;
@@ -128,18 +140,37 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
       break;
     }
     H.block<3, 3>(3, 0) = H.block<3, 3>(0, 3).transpose();
-    const Vector6d xi = H.ldlt().solve(-g);
-    if (!xi.allFinite()) {
+    // The step in H's eigenbasis; directions with too little information get none.
+    const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(H);
+    const Vector6d& lambda = eigen.eigenvalues();  // ascending
+    if (eigen.info() != Eigen::Success || !(lambda(5) > 0.0)) {
       result.status = "degenerate";
       break;
     }
-    const Eigen::Vector3d omega = xi.head<3>();
+    result.information_ratio = std::max(lambda(0), 0.0) / lambda(5);
+    result.degenerate_directions = 0;
+    Vector6d xi_scaled = Vector6d::Zero();
+    for (int k = 0; k < 6; ++k) {
+      if (!(lambda(k) > config.degeneracy_ratio * lambda(5)) || !(lambda(k) > 0.0)) {
+        ++result.degenerate_directions;
+        continue;
+      }
+      const Vector6d v = eigen.eigenvectors().col(k);
+      xi_scaled -= v * (v.dot(g) / lambda(k));
+    }
+    if (!xi_scaled.allFinite()) {
+      result.status = "degenerate";
+      break;
+    }
+    // Back to a rotation about the centroid and a translation: p -> R_step (p - c) + c + v.
+    const Eigen::Vector3d omega = xi_scaled.head<3>() / radius_m;
+    const Eigen::Vector3d v = xi_scaled.tail<3>();
     Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
     if (omega.norm() > 0.0) step.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
-    step.translation() = xi.tail<3>();
+    step.translation() = centroid - step.linear() * centroid + v;
     T = step * T;
     T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();  // no drift from rigidity
-    if (omega.norm() < config.rotation_epsilon_rad && xi.tail<3>().norm() < config.translation_epsilon_m) {
+    if (omega.norm() < config.rotation_epsilon_rad && v.norm() < config.translation_epsilon_m) {
       result.converged = true;
       result.status = "converged";
       break;
@@ -164,6 +195,7 @@ GicpRegistration::GicpRegistration(const Config& config) : config_(config) {
           "must be 0 (no sampling) or positive");
   require(config_.covariance_neighbours >= 3, "covariance_neighbours", "must be at least 3");
   require(config_.plane_epsilon > 0.0 && config_.plane_epsilon <= 1.0, "plane_epsilon", "must be in (0, 1]");
+  require(config_.degeneracy_ratio >= 0.0 && config_.degeneracy_ratio < 1.0, "degeneracy_ratio", "must be in [0, 1)");
 }
 
 RegistrationResult GicpRegistration::align(const core::PointCloud& source, const core::PointCloud& target,

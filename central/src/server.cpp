@@ -84,6 +84,8 @@ nlohmann::json to_json(const MergeResult& m) {
       entry["registration"] = {{"status", r.registration.status}, {"converged", r.registration.converged},
                                {"iterations", r.registration.iterations}, {"inlier_ratio", r.registration.inlier_ratio},
                                {"fitness_m2", std::isfinite(r.registration.fitness_m2) ? nlohmann::json(r.registration.fitness_m2) : nlohmann::json(nullptr)},
+                               {"information_ratio", r.registration.information_ratio},
+                               {"degenerate_directions", r.registration.degenerate_directions},
                                {"source_points", r.registration.source_points}, {"target_points", r.registration.target_points}};
     }
     robots.push_back(entry);

@@ -2,12 +2,14 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "fleetslam/central/map_merger.hpp"
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
 #include "synthetic_clouds.hpp"
 
 namespace fleetslam::central {
@@ -96,6 +98,67 @@ TEST(MapMerger, ASecondRoundOnTheRefinedOverlapIsMoreAccurate) {
   EXPECT_LT(two_rad, one_rad);
   EXPECT_LT(two_m, 0.005);
   EXPECT_LT(two_rad, 0.2 * kDeg);
+}
+
+// A corridor along x (floor and two walls, no ends) seen by a robot where x is in [x_min, x_max], in
+// the world frame.
+core::PointCloud corridor(float x_min, float x_max, std::uint32_t seed, std::size_t n = 30000) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> noise(0.0f, 0.003f);
+  core::PointCloud cloud;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float x = x_min + (x_max - x_min) * u(rng);
+    const float a = u(rng), b = u(rng);
+    const int surface = static_cast<int>(i % 3);
+    if (surface == 0) cloud.push_back({x, 2.0f * a, noise(rng)});         // floor
+    if (surface == 1) cloud.push_back({x, noise(rng), 2.5f * b});         // wall y = 0
+    if (surface == 2) cloud.push_back({x, 2.0f + noise(rng), 2.5f * b});  // wall y = 2
+  }
+  return cloud;
+}
+
+// Along a corridor the overlap says nothing about x: with degeneracy_ratio set, x keeps the prior and the
+// five constrained directions (y, z and all three rotations, about the overlap) are refined; without it
+// GICP slides along the corridor.
+TEST(MapMerger, ACorridorOverlapKeepsThePriorAlongTheCorridor) {
+  const Eigen::Isometry3d error = synthetic::pose(0.5, -0.4, 2.0, Eigen::Vector3d(0.06, 0.05, -0.03));
+  RobotCloud a{0, corridor(0.0f, 4.0f, 7), Eigen::Isometry3d::Identity()};
+  RobotCloud b{1, corridor(2.0f, 6.0f, 8), error};  // b's frame is the world's; its prior is off
+  MapMergerConfig config;
+  config.sampling.enabled = false;
+  config.filter.enabled = false;
+  config.registration.degeneracy_ratio = 0.01;
+  const MergeResult kept = MapMerger(config).merge({a, b});
+  const RobotMergeReport& r = kept.robots[1];
+  ASSERT_TRUE(r.fine_matched) << r.status;
+  EXPECT_EQ(r.registration.degenerate_directions, 1);
+  EXPECT_LT(r.registration.information_ratio, 5e-3);
+  // The corridor's axis through the overlap stays where the prior put it, the rest is corrected.
+  const Eigen::Vector3d centre(3.0, 1.0, 1.25);
+  const Eigen::Vector3d moved = r.T_world_robot * centre;
+  const Eigen::Vector3d prior = error * centre;
+  // (within the small rotation's effect about the overlap's own centroid, a few mm here)
+  EXPECT_NEAR(moved.x(), prior.x(), 0.01) << "x keeps the prior: " << moved.transpose() << " vs " << prior.transpose();
+  EXPECT_LT(std::abs(moved.y() - centre.y()), 0.005) << "y is refined";
+  EXPECT_LT(std::abs(moved.z() - centre.z()), 0.005) << "z is refined";
+  EXPECT_LT(core::rotation_angle_rad(r.T_world_robot.linear()), 0.1 * kDeg) << "rotation is refined";
+  // Without the check GICP slides along x on the noise (11 cm here).
+  config.registration.degeneracy_ratio = 0.0;
+  const MergeResult free = MapMerger(config).merge({a, b});
+  EXPECT_EQ(free.robots[1].registration.degenerate_directions, 0);
+  EXPECT_GT(std::abs((free.robots[1].T_world_robot * centre).x() - prior.x()), 0.05);
+}
+
+TEST(MapMerger, AnOverlapOfAWholeRoomHasNoDegenerateDirection) {
+  MapMergerConfig config;
+  config.registration.degeneracy_ratio = 0.01;
+  const MergeResult merged = MapMerger(config).merge({robot(0, 0.0f, 4.0f, kPoseA, Eigen::Isometry3d::Identity()),
+                                                      robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())});
+  ASSERT_TRUE(merged.robots[1].fine_matched);
+  EXPECT_EQ(merged.robots[1].registration.degenerate_directions, 0);
+  EXPECT_GT(merged.robots[1].registration.information_ratio, 0.01);
+  expect_pose_near(merged.robots[1].T_world_robot, kPoseB, 0.005, 0.1);
 }
 
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {

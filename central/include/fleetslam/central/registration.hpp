@@ -6,6 +6,13 @@
 //   sum_i d_i^T (C_i^B + R C_i^A R^T)^-1 d_i,  d_i = b_i - T a_i      (paper eq. 12)
 // Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost.
 //
+// Degenerate overlaps (a corridor's floor and two walls say nothing about where along it a map lies):
+// each Gauss-Newton step is solved in the eigenbasis of the normal equations' information, taken about
+// the source set's centroid with rotation scaled by the set's RMS radius (so that the six directions
+// compare in metres and rotation and translation do not mix through a far-away origin); directions
+// whose eigenvalue is below degeneracy_ratio of the largest get no update, so they keep the guess
+// (solution remapping, Zhang, Kaess & Singh, ICRA 2016). The native backend only.
+//
 // Backends: `native` (this project's Gauss-Newton on SE(3) with exact kd-tree correspondences, the
 // default) and `pcl` (pcl::GeneralizedIterativeClosestPoint, kept for comparison). Measured on the
 // overlap sets of two 200k-point synthetic rooms with a 10 cm + 5 degree prior error (bench_merge BM_Fine,
@@ -37,6 +44,7 @@ struct RegistrationConfig {
   double voxel_size_m = 0.1;      // uniform pre-sampling of both sets (0: none); see bench_merge.cpp
   int covariance_neighbours = 20;  // PCL's default k
   double plane_epsilon = 1e-3;     // PCL's gicp_epsilon
+  double degeneracy_ratio = 0.0;   // 0: every direction is updated (see above)
 
   template <class V>
   void visit(V& v) {
@@ -49,6 +57,7 @@ struct RegistrationConfig {
     v("voxel_size_m", voxel_size_m, core::Limits<double>{0.0, 10.0});
     v("covariance_neighbours", covariance_neighbours, core::Limits<int>{3, 200});
     v("plane_epsilon", plane_epsilon, core::Limits<double>{1e-9, 1.0});
+    v("degeneracy_ratio", degeneracy_ratio, core::Limits<double>{0.0, 1.0});
   }
 };
 
@@ -62,6 +71,10 @@ struct RegistrationResult {
   // neighbours up to about that far apart, so the fitness says more about density than about accuracy.
   double fitness_m2 = std::numeric_limits<double>::infinity();
   double inlier_ratio = 0.0;
+  // The information about the source centroid at the last iteration (eigenvalues ascending, scaled as
+  // described above): its smallest eigenvalue over its largest, and the directions that kept the guess.
+  double information_ratio = 0.0;
+  int degenerate_directions = 0;
   std::size_t source_points = 0;  // used, after sampling
   std::size_t target_points = 0;
   std::string status;  // "converged", "max iterations", "too few points", "degenerate", "disabled"
