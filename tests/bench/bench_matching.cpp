@@ -40,6 +40,7 @@
 
 #include "fleetslam/experiments/matchers.hpp"
 #include "fleetslam/slam/matcher.hpp"
+#include "memory_counter.hpp"
 
 namespace {
 
@@ -298,9 +299,5 @@ benchmark::IterationCount take_iterations_flag(int& argc, char** argv) {
 int main(int argc, char** argv) {
   cv::setNumThreads(1);  // the projection matchers are single-threaded; compare per core
   register_benchmarks(take_iterations_flag(argc, argv));
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return fleetslam::bench::run_benchmarks(argc, argv);
 }

@@ -37,6 +37,7 @@
 #include "fleetslam/central/registration.hpp"
 #include "fleetslam/central/sampling.hpp"
 #include "synthetic_clouds.hpp"
+#include "memory_counter.hpp"
 
 namespace {
 
@@ -217,4 +218,4 @@ BENCHMARK(BM_KdTree)->ArgName("queries")->Arg(0)->Arg(1)->Unit(benchmark::kMilli
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return fleetslam::bench::run_benchmarks(argc, argv); }

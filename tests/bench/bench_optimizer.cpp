@@ -8,6 +8,7 @@
 
 #include "fleetslam/core/se3.hpp"
 #include "fleetslam/slam/optimizer.hpp"
+#include "memory_counter.hpp"
 
 namespace {
 
@@ -76,4 +77,4 @@ void BM_LocalBundleAdjustment(benchmark::State& state) {
 
 BENCHMARK(BM_OptimizePose)->Arg(100)->Arg(300)->Arg(1000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LocalBundleAdjustment)->Arg(400)->Unit(benchmark::kMillisecond);
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return fleetslam::bench::run_benchmarks(argc, argv); }

@@ -19,6 +19,7 @@
 #include "fleetslam/slam/matcher.hpp"
 #include "fleetslam/slam/orb_extractor.hpp"
 #include "front_end_test_util.hpp"
+#include "memory_counter.hpp"
 
 namespace {
 
@@ -127,4 +128,4 @@ BENCHMARK(BM_FrameBuilderEurocStereo)->Unit(benchmark::kMillisecond)->ComputeSta
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return fleetslam::bench::run_benchmarks(argc, argv); }

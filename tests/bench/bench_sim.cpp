@@ -22,6 +22,7 @@
 #include "fleetslam/sim/scenario.hpp"
 #include "fleetslam/sim/sensor_noise.hpp"
 #include "fleetslam/sim/world.hpp"
+#include "memory_counter.hpp"
 
 namespace {
 
@@ -188,8 +189,5 @@ int main(int argc, char** argv) {
     }
   }
   int rest_count = static_cast<int>(rest.size());
-  benchmark::Initialize(&rest_count, rest.data());
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return fleetslam::bench::run_benchmarks(rest_count, rest.data());
 }
