@@ -2,7 +2,9 @@
 // graph and the global BA.
 
 #include <algorithm>
+#include <iterator>
 #include <map>
+#include <set>
 
 #include <ceres/ceres.h>
 #include <spdlog/logger.h>
@@ -249,14 +251,66 @@ BaResult LoopCloser::solve_global_ba(const GlobalBaProblem& gp) const {
 bool LoopCloser::apply_global_ba(const GlobalBaProblem& gp, const BaResult& result, Map& map,
                                  std::set<KeyframeId>& moved) const {
   if (!result.ok) return false;
+  // Each solved keyframe's correction in the world frame, T_world_cam(after) = C * T_world_cam(prepared).
+  std::map<KeyframeId, Eigen::Isometry3d> correction;
+  int component = -1;
   for (std::size_t k = 0; k < gp.keyframe_ids.size(); ++k) {
     Keyframe* kf = map.keyframe(gp.keyframe_ids[k]);
-    if (kf == nullptr || gp.problem.keyframes[k].fixed) continue;
-    kf->T_world_cam = result.T_cam_world[k].inverse();
+    if (kf == nullptr) continue;
+    component = kf->component;
+    if (gp.problem.keyframes[k].fixed) {
+      correction.emplace(kf->id, Eigen::Isometry3d::Identity());
+      continue;
+    }
+    const Eigen::Isometry3d T_world_cam = result.T_cam_world[k].inverse();
+    correction.emplace(kf->id, T_world_cam * gp.problem.keyframes[k].T_cam_world);
+    kf->T_world_cam = T_world_cam;
     moved.insert(kf->id);
+  }
+  // Keyframes of the component that the problem did not hold (threaded mode: inserted while it was
+  // solved) follow their best covisible solved keyframe, or else the newest solved one before them, as
+  // ORB-SLAM propagates a global BA through the spanning tree.
+  std::map<KeyframeId, Eigen::Isometry3d> followed;
+  std::vector<KeyframeId> unsolved;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.component == component && correction.count(id) == 0) unsolved.push_back(id);
+  }
+  for (KeyframeId id : unsolved) {
+    Keyframe& kf = *map.keyframe(id);
+    const Eigen::Isometry3d* C = nullptr;
+    for (KeyframeId n : kf.best_covisible(static_cast<int>(kf.connections.size()))) {
+      if (const auto it = correction.find(n); it != correction.end()) {
+        C = &it->second;
+        break;
+      }
+    }
+    if (C == nullptr) {
+      auto it = correction.lower_bound(id);
+      if (it == correction.begin()) continue;
+      C = &std::prev(it)->second;
+    }
+    kf.T_world_cam = *C * kf.T_world_cam;
+    followed.emplace(id, *C);
+    moved.insert(id);
   }
   for (std::size_t j = 0; j < gp.point_ids.size(); ++j) {
     if (MapPoint* p = map.point(gp.point_ids[j])) p->position = result.points_world[j];
+  }
+  // Points the problem did not hold (created meanwhile) follow the keyframe they are anchored to.
+  if (!followed.empty() || gp.point_ids.size() < map.point_count()) {
+    const std::set<MapPointId> solved(gp.point_ids.begin(), gp.point_ids.end());
+    for (MapPointId id : map.point_ids()) {
+      if (solved.count(id) > 0) continue;
+      MapPoint& p = *map.point(id);
+      const KeyframeId anchor = anchor_of(p, map);
+      const auto f = followed.find(anchor);
+      const auto c = correction.find(anchor);
+      if (f != followed.end()) {
+        p.position = f->second * p.position;
+      } else if (c != correction.end()) {
+        p.position = c->second * p.position;
+      }
+    }
   }
   for (std::size_t o = 0; o < gp.observation_of.size(); ++o) {
     if (!result.outlier[o]) continue;

@@ -151,7 +151,10 @@ class LoopCloser {
 
   std::optional<GlobalBaProblem> prepare_global_ba(int component, const Map& map) const;
   BaResult solve_global_ba(const GlobalBaProblem& problem) const;
-  // Writes back what still exists; moved keyframes are added to `moved`. Returns result.ok.
+  // Writes back what still exists; moved keyframes are added to `moved`. Keyframes of the component
+  // that the problem did not hold (threaded mode: inserted during the solve) move with the correction of
+  // their best covisible solved keyframe (else the newest solved one before them), and points the
+  // problem did not hold with their anchor keyframe's. Returns result.ok (nothing changes otherwise).
   bool apply_global_ba(const GlobalBaProblem& problem, const BaResult& result, Map& map,
                        std::set<KeyframeId>& moved) const;
 
