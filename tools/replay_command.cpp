@@ -44,6 +44,7 @@
 #include "fleetslam/central/link.hpp"
 #include "fleetslam/central/server.hpp"
 #include "fleetslam/slam/agent.hpp"
+#include "fleetslam/slam/orbslam_settings.hpp"
 
 namespace fleetslam::tools {
 namespace {
@@ -69,15 +70,7 @@ struct ReplayOptions {
 // Defaults, then the ORB-SLAM settings file's ORB and close-depth values, then the config file.
 slam::AgentConfig agent_config(const ReplayOptions& o, const std::optional<core::OrbSlamSettings>& settings) {
   slam::AgentConfig config;
-  if (settings) {
-    slam::OrbExtractorConfig& orb = config.frontend.orb;
-    orb.num_features = settings->orb.num_features;
-    orb.scale_factor = settings->orb.scale_factor;
-    orb.num_levels = settings->orb.num_levels;
-    orb.ini_fast_threshold = settings->orb.ini_fast_threshold;
-    orb.min_fast_threshold = settings->orb.min_fast_threshold;
-    if (settings->th_depth > 0.0) config.frontend.close_depth_baselines = settings->th_depth;
-  }
+  if (settings) slam::apply_orbslam_settings(*settings, config.frontend);
   config = read_config_file(o.config, config);
   if (o.sensor == "rgbd") config.sensor = slam::AgentSensor::kRgbd;
   if (o.sensor == "stereo") config.sensor = slam::AgentSensor::kStereo;

@@ -14,6 +14,7 @@
 #include "fleetslam/runner/run_config.hpp"
 #include "fleetslam/sim/scenario.hpp"
 #include "fleetslam/sim/world.hpp"
+#include "fleetslam/slam/orbslam_settings.hpp"
 
 namespace fleetslam::experiments {
 namespace {
@@ -181,15 +182,7 @@ std::unique_ptr<core::FrameSource> open_sequence(const SequenceSpec& spec, std::
 
 slam::AgentConfig agent_config_for(const SequenceSpec& spec) {
   slam::AgentConfig config;
-  if (const auto settings = sequence_settings(spec)) {
-    slam::OrbExtractorConfig& orb = config.frontend.orb;
-    orb.num_features = settings->orb.num_features;
-    orb.scale_factor = settings->orb.scale_factor;
-    orb.num_levels = settings->orb.num_levels;
-    orb.ini_fast_threshold = settings->orb.ini_fast_threshold;
-    orb.min_fast_threshold = settings->orb.min_fast_threshold;
-    if (settings->th_depth > 0.0) config.frontend.close_depth_baselines = settings->th_depth;
-  }
+  if (const auto settings = sequence_settings(spec)) slam::apply_orbslam_settings(*settings, config.frontend);
   config.sensor = spec.stereo ? slam::AgentSensor::kStereo : slam::AgentSensor::kRgbd;
   return config;
 }
