@@ -83,17 +83,24 @@ constexpr std::size_t kDefault = alignof(std::max_align_t);
 // ConsoleReporter, plus the memory figures (reported by 1.7.1 in JSON only) as user counters.
 class MemoryConsoleReporter final : public benchmark::ConsoleReporter {
  public:
-  explicit MemoryConsoleReporter(OutputOptions options) : ConsoleReporter(options) {}
+  MemoryConsoleReporter(OutputOptions options, AllocationCounter& counter) : ConsoleReporter(options), counter_(counter) {}
 
+  // The runs that had a memory measurement, in order, take the counter's peaks in order (see
+  // AllocationCounter::take_peaks on why not run.memory_result).
   void ReportRuns(const std::vector<Run>& reports) override {
+    const std::vector<std::int64_t> peaks = counter_.take_peaks();
+    std::size_t next = 0;
     std::vector<Run> runs = reports;
     for (Run& run : runs) {
-      if (run.memory_result == nullptr) continue;
-      run.counters["peak_MiB"] = static_cast<double>(run.memory_result->max_bytes_used) / (1024.0 * 1024.0);
+      if (run.memory_result == nullptr || next >= peaks.size()) continue;
+      run.counters["peak_MiB"] = static_cast<double>(peaks[next++]) / (1024.0 * 1024.0);
       run.counters["allocs/iter"] = run.allocs_per_iter;
     }
     ConsoleReporter::ReportRuns(runs);
   }
+
+ private:
+  AllocationCounter& counter_;
 };
 
 // The value of --NAME=VALUE in argv ("" when absent; "true" for a bare --NAME).
@@ -127,6 +134,13 @@ void AllocationCounter::Stop(Result& result) {
   result.max_bytes_used = g_peak.load(std::memory_order_relaxed);
   result.total_allocated_bytes = g_allocated.load(std::memory_order_relaxed);
   result.net_heap_growth = g_in_use.load(std::memory_order_relaxed);
+  peaks_.push_back(result.max_bytes_used);
+}
+
+std::vector<std::int64_t> AllocationCounter::take_peaks() {
+  std::vector<std::int64_t> peaks;
+  peaks.swap(peaks_);
+  return peaks;
 }
 
 void AllocationCounter::Stop(Result* result) { Stop(*result); }
@@ -149,7 +163,7 @@ int run_benchmarks(int argc, char** argv) {
     int options = benchmark::ConsoleReporter::OO_None;
     if (use_color) options |= benchmark::ConsoleReporter::OO_Color;
     if (tabular) options |= benchmark::ConsoleReporter::OO_Tabular;
-    MemoryConsoleReporter reporter(static_cast<benchmark::ConsoleReporter::OutputOptions>(options));
+    MemoryConsoleReporter reporter(static_cast<benchmark::ConsoleReporter::OutputOptions>(options), counter);
     benchmark::RunSpecifiedBenchmarks(&reporter);
   }
   benchmark::RegisterMemoryManager(nullptr);

@@ -23,6 +23,9 @@
 // total_allocated_bytes, net_heap_growth, e.g. with --benchmark_out=FILE); run_benchmarks() adds them
 // to the console as the user counters peak_MiB and allocs/iter.
 
+#include <cstdint>
+#include <vector>
+
 #include <benchmark/benchmark.h>
 
 namespace fleetslam::bench {
@@ -33,6 +36,14 @@ class AllocationCounter final : public benchmark::MemoryManager {
   void Stop(Result& result) override;
   // The deprecated pointer form, still pure virtual in 1.7.1.
   void Stop(Result* result) override;
+
+  // The peak bytes of each Stop() not yet taken, oldest first. The console reporter reads the peaks from
+  // here, not through Run::memory_result: 1.7.1 keeps the results in a std::vector that reallocates
+  // between repetitions, so the runs' pointers into it dangle (google/benchmark#1939, fixed in 1.9.2).
+  std::vector<std::int64_t> take_peaks();
+
+ private:
+  std::vector<std::int64_t> peaks_;
 };
 
 // A bench executable's main(): registers an AllocationCounter, runs the benchmarks selected by the
