@@ -268,10 +268,11 @@ void LoopCloser::refuse_implausible(KeyframeId current, const Verified& loop, co
                 p.bound_deg);
 }
 
-int LoopCloser::confirmations(const Keyframe& current, const Verified& loop, const Map& map) const {
+int LoopCloser::confirmations(const Keyframe& current, const std::vector<KeyframeId>& neighbours, const Verified& loop,
+                              const Map& map) const {
   const Eigen::Isometry3d correction = loop.T_world_cam * current.T_world_cam.inverse();
   int confirmed = 0;
-  for (KeyframeId id : current.best_covisible(config_.confirm_neighbours)) {
+  for (KeyframeId id : neighbours) {
     const Keyframe* n = map.keyframe(id);
     if (n == nullptr) continue;
     Frame f = n->frame;
@@ -296,9 +297,10 @@ std::optional<LoopEvent> LoopCloser::detect_and_correct(KeyframeId current, Map&
       refuse_implausible(current, *loop, plausibility);
       continue;
     }
-    const int neighbours = static_cast<int>(kf->best_covisible(config_.confirm_neighbours).size());
+    const std::vector<KeyframeId> neighbour_ids = kf->best_covisible(config_.confirm_neighbours);
+    const int neighbours = static_cast<int>(neighbour_ids.size());
     const int needed = std::min(config_.confirmations, neighbours);
-    const int confirmed = needed > 0 ? confirmations(*kf, *loop, map) : 0;
+    const int confirmed = needed > 0 ? confirmations(*kf, neighbour_ids, *loop, map) : 0;
     if (confirmed < needed) {
       ++rejections_.unconfirmed;
       logger_->info("loop refused: keyframe {} with {} (score {:.3f}, {} inliers, correction {:.3f} m / {:.1f} deg) "

@@ -174,11 +174,9 @@ std::vector<fs::path> write_keyframes_outputs(const KeyframesResult& result, con
   std::string md = "# Keyframe policies (paper Table 2)\n\nATE (m, SE(3) alignment) averaged over " +
                    std::to_string(result.config.runs) + " run(s) per policy with the largest and smallest value of "
                    "each statistic dropped (" + std::string(result.config.threaded ? "threaded mode" : "deterministic mode, loop-closing seed = run") + ").\n";
-  std::vector<std::string> sequences;
-  for (const KeyframesRow& r : result.rows) {
-    if (std::find(sequences.begin(), sequences.end(), r.sequence) == sequences.end()) sequences.push_back(r.sequence);
-  }
-  for (const std::string& sequence : sequences) {
+  std::vector<std::string> names;
+  for (const KeyframesRow& r : result.rows) names.push_back(r.sequence);
+  for (const std::string& sequence : unique_in_order(names)) {
     Table table;
     table.header = {"policy", "max", "median", "RMSE", "std", "keyframes", "runs (distinct)"};
     LinePlot rmse_plot{"Cumulative ATE RMSE, " + sequence, "time (s)", "ATE RMSE (m)", {}};

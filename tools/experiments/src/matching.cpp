@@ -79,8 +79,6 @@ slam::FrameBuilderConfig builder_config(const SequenceSpec& spec, int features) 
   return config;
 }
 
-std::string sequence_of(const MatchingRow& row) { return row.sequence; }
-
 }  // namespace
 
 std::string file_stem(const std::string& sequence) {
@@ -167,10 +165,9 @@ Table matching_table(const MatchingResult& result) {
 std::vector<fs::path> write_matching_outputs(const MatchingResult& result, const fs::path& dir) {
   std::vector<fs::path> written = {dir / "matching.csv", dir / "matching.md"};
   write_text(written[0], matching_table(result).csv());
-  std::vector<std::string> sequences;
-  for (const MatchingRow& row : result.rows) {
-    if (std::find(sequences.begin(), sequences.end(), sequence_of(row)) == sequences.end()) sequences.push_back(row.sequence);
-  }
+  std::vector<std::string> names;
+  for (const MatchingRow& row : result.rows) names.push_back(row.sequence);
+  const std::vector<std::string> sequences = unique_in_order(names);
   std::string md = "# Matching time and quality (paper Table 1)\n\n"
                    "Median ms per match over " + std::to_string(result.config.repetitions) +
                    " repetitions of each pair; matches, precision and recall summed over the pairs "

@@ -75,14 +75,6 @@ std::string change(double a, double b) {
   return (p >= 0 ? "+" : "") + fixed(p, 1) + " %";
 }
 
-std::vector<std::string> unique_in_order(const std::vector<std::string>& items) {
-  std::vector<std::string> out;
-  for (const std::string& s : items) {
-    if (std::find(out.begin(), out.end(), s) == out.end()) out.push_back(s);
-  }
-  return out;
-}
-
 // ---- sections ------------------------------------------------------------------------------------
 
 std::string data_section(const ResultsInput& in) {

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <limits>
 #include <numeric>
 
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/runner/outputs.hpp"
 
 namespace fleetslam::experiments {
 namespace {
@@ -79,9 +79,15 @@ std::string fixed(double value, int decimals) {
 void write_text(const std::filesystem::path& file, const std::string& text) {
   std::error_code ec;
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-  std::ofstream out(file, std::ios::binary);
-  out << text;
-  if (!out) throw InputError(file.string(), "cannot write the file");
+  runner::write_text_file(file, text);
+}
+
+std::vector<std::string> unique_in_order(const std::vector<std::string>& items) {
+  std::vector<std::string> out;
+  for (const std::string& s : items) {
+    if (std::find(out.begin(), out.end(), s) == out.end()) out.push_back(s);
+  }
+  return out;
 }
 
 double mean_of(const std::vector<double>& values) {

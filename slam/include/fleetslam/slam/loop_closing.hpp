@@ -194,7 +194,9 @@ class LoopCloser {
   Plausibility plausible(const Keyframe& current, const Eigen::Isometry3d& T_world_cam_corrected, KeyframeId loop,
                          const Map& map) const;
   void refuse_implausible(KeyframeId current, const Verified& loop, const Plausibility& plausibility);
-  int confirmations(const Keyframe& current, const Verified& loop, const Map& map) const;
+  // How many of `neighbours` find min_confirm_inliers loop points at their corrected poses.
+  int confirmations(const Keyframe& current, const std::vector<KeyframeId>& neighbours, const Verified& loop,
+                    const Map& map) const;
   void correct(KeyframeId current, const Verified& loop, Map& map, LoopEvent& event, std::set<KeyframeId>& moved) const;
 
   LoopClosingConfig config_;

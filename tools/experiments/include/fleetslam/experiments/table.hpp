@@ -23,8 +23,12 @@ struct Table {
 // `value` with `decimals` digits after the point ("nan" when not finite).
 std::string fixed(double value, int decimals);
 
-// Writes `text` to `file` (parent folders created). Throws InputError naming the file when it cannot.
+// Writes `text` to `file` (parent folders created; runner::write_text_file). Throws InputError naming
+// the file when it cannot.
 void write_text(const std::filesystem::path& file, const std::string& text);
+
+// The distinct items in the order they first appear.
+std::vector<std::string> unique_in_order(const std::vector<std::string>& items);
 
 // Mean and median (numpy's: the mean of the two middle values for an even count); NaN when empty.
 double mean_of(const std::vector<double>& values);
