@@ -176,9 +176,11 @@ bool MapMerger::match(std::size_t i, const std::vector<RobotCloud>& robots, cons
   result.timings.coarse_ms += ms_since(stage);
   report.overlap_points = overlap.size();
   report.overlap_mean_distance_m = overlap.mean_distance_m;
+  report.overlap_normal_rejected = overlap.normal_rejected;
   report.overlap_with = pairs_per_robot(overlap, merged, robots);
-  logger_->info("merge: robot {}: coarse overlap {} pairs (mean distance {:.3f} m) with {} merged points",
-                report.robot_id, overlap.size(), overlap.mean_distance_m, merged.cloud.size());
+  logger_->info("merge: robot {}: coarse overlap {} pairs (mean distance {:.3f} m, {} left out for opposite normals) "
+                "with {} merged points",
+                report.robot_id, overlap.size(), overlap.mean_distance_m, overlap.normal_rejected, merged.cloud.size());
   if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) return false;
   if (config_.registration.enabled) {
     fine_match(report, overlap, merged.cloud, cloud_world, result.timings);

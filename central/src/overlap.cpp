@@ -77,6 +77,9 @@ OverlapFinder::OverlapFinder(const Config& config) : config_(config) {
   if (!(config_.coarse_radius_m > 0.0) || !std::isfinite(config_.coarse_radius_m)) {
     throw InputError("overlap.coarse_radius_m", "must be positive, got " + std::to_string(config_.coarse_radius_m));
   }
+  if (!(config_.max_normal_angle_deg >= 0.0 && config_.max_normal_angle_deg <= 180.0)) {
+    throw InputError("overlap.max_normal_angle_deg", "must be in [0, 180], got " + std::to_string(config_.max_normal_angle_deg));
+  }
 }
 
 Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCloud& b_world) const {
@@ -126,9 +129,20 @@ Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCl
     const std::uint32_t b = b_hit[n.index];
     if (nearest_a[b] == a) partner[a] = Neighbour{b, n.distance_sq_m2};
   }
+  const bool use_normals = a_world.has_normals() && b_world.has_normals() && config_.max_normal_angle_deg < 180.0;
+  constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
+  const auto min_cos = static_cast<float>(std::cos(config_.max_normal_angle_deg * kRadiansPerDegree));
   double distance_sum = 0.0;
   for (std::uint32_t a : chosen) {
     if (!partner[a].found()) continue;
+    if (use_normals) {
+      const Eigen::Vector3f& na = a_world.normals[a];
+      const Eigen::Vector3f& nb = b_world.normals[partner[a].index];
+      if (!na.isZero() && !nb.isZero() && na.dot(nb) < min_cos) {
+        ++overlap.normal_rejected;
+        continue;
+      }
+    }
     overlap.indices_a.push_back(a);
     overlap.indices_b.push_back(partner[a].index);
     distance_sum += std::sqrt(static_cast<double>(partner[a].distance_sq_m2));
@@ -151,15 +165,10 @@ OverlapRegions overlap_regions(const core::PointCloud& a_world, const core::Poin
 
 core::PointCloud select_points(const core::PointCloud& cloud, const std::vector<std::uint32_t>& indices) {
   core::PointCloud out;
-  const bool colored = cloud.has_colors();
-  out.reserve(indices.size(), colored);
+  out.reserve(indices.size(), cloud.has_colors());
   for (std::uint32_t i : indices) {
     FLEETSLAM_CHECK(i < cloud.size(), "select_points: index out of range");
-    if (colored) {
-      out.push_back(cloud.points[i], cloud.colors[i]);
-    } else {
-      out.push_back(cloud.points[i]);
-    }
+    out.push_back_from(cloud, i);
   }
   return out;
 }

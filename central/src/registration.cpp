@@ -20,18 +20,36 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr std::size_t kMinPoints = 10;
+constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
-// Finite points, uniformly sampled when voxel_size_m > 0.
-std::vector<Eigen::Vector3f> prepare(const core::PointCloud& cloud, double voxel_size_m) {
-  core::PointCloud positions;
-  positions.points = cloud.points;
+// Finite points (and their normals, when the cloud has them), uniformly sampled when voxel_size_m > 0.
+struct Prepared {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f> normals;  // empty, or one per point (zero: unknown)
+};
+
+Prepared prepare(const core::PointCloud& cloud, double voxel_size_m) {
+  core::PointCloud kept;
+  kept.points = cloud.points;
+  if (cloud.has_normals()) kept.normals = cloud.normals;
   if (voxel_size_m > 0.0) {
     UniformSamplingConfig sampling;
     sampling.voxel_size_m = voxel_size_m;
-    return UniformSampler(sampling).sample(positions).cloud.points;
+    kept = UniformSampler(sampling).sample(kept).cloud;
+  } else {
+    core::remove_non_finite(kept);
   }
-  core::remove_non_finite(positions);
-  return positions.points;
+  return Prepared{std::move(kept.points), std::move(kept.normals)};
+}
+
+// Whether two normals (either may be unknown: zero) may belong to the same surface.
+bool normals_agree(const std::vector<Eigen::Vector3f>& normals_a, std::size_t a, const Eigen::Matrix3f& R_a,
+                   const std::vector<Eigen::Vector3f>& normals_b, std::size_t b, float min_cos) {
+  if (normals_a.empty() || normals_b.empty()) return true;
+  const Eigen::Vector3f& na = normals_a[a];
+  const Eigen::Vector3f& nb = normals_b[b];
+  if (na.isZero() || nb.isZero()) return true;
+  return (R_a * na).dot(nb) >= min_cos;
 }
 
 // GICP's plane-to-plane covariances (Segal et al. section III-B): the covariance of the k nearest points,
@@ -91,9 +109,13 @@ Fitness fitness(const std::vector<Eigen::Vector3f>& source, const KdTree& target
 // with xi = (radius * omega, v): d_i(xi) = b_i - p_i' ~ d_i + [p_i - c]x omega - v, p_i = T a_i, so
 // J_i = [[p_i - c]x / radius, -I] and the normal equations sum J_i^T M_i J_i xi = -sum J_i^T M_i d_i with
 // M_i = (C_i^B + R C_i^A R^T)^-1, solved in their eigenbasis (see the header on degenerate directions).
-RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
-                                const KdTree& target_tree, const Eigen::Isometry3d& guess,
-                                const RegistrationConfig& config) {
+RegistrationResult align_native(const Prepared& source_set, const Prepared& target_set, const KdTree& target_tree,
+                                const Eigen::Isometry3d& guess, const RegistrationConfig& config) {
+  const std::vector<Eigen::Vector3f>& source = source_set.points;
+  const std::vector<Eigen::Vector3f>& target = target_set.points;
+  const float min_normal_cos = config.max_normal_angle_deg >= 180.0
+                                   ? -2.0f
+                                   : static_cast<float>(std::cos(config.max_normal_angle_deg * kRadiansPerDegree));
   const KdTree source_tree(source);
   const std::vector<Eigen::Matrix3d> source_cov =
       plane_covariances(source, source_tree, config.covariance_neighbours, config.plane_epsilon);
@@ -116,6 +138,7 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     result.iterations = iteration;
     const Eigen::Matrix3d R = T.linear();
+    const Eigen::Matrix3f R_f = R.cast<float>();
     Matrix6d H = Matrix6d::Zero();
     Vector6d g = Vector6d::Zero();
     std::size_t correspondences = 0;
@@ -123,6 +146,8 @@ RegistrationResult align_native(const std::vector<Eigen::Vector3f>& source, cons
       const Eigen::Vector3d p = T * source[i].cast<double>();
       const Neighbour n = target_tree.nearest(p.cast<float>(), max_distance);
       if (!n.found()) continue;
+      // Opposite faces of a thin wall are near but not the same surface.
+      if (!normals_agree(source_set.normals, i, R_f, target_set.normals, n.index, min_normal_cos)) continue;
       ++correspondences;
       const Eigen::Vector3d d = target[n.index].cast<double>() - p;
       const Eigen::Matrix3d M = (target_cov[n.index] + R * source_cov[i] * R.transpose()).inverse();
@@ -195,6 +220,8 @@ GicpRegistration::GicpRegistration(const Config& config) : config_(config) {
           "must be 0 (no sampling) or positive");
   require(config_.covariance_neighbours >= 3, "covariance_neighbours", "must be at least 3");
   require(config_.plane_epsilon > 0.0 && config_.plane_epsilon <= 1.0, "plane_epsilon", "must be in (0, 1]");
+  require(config_.max_normal_angle_deg >= 0.0 && config_.max_normal_angle_deg <= 180.0, "max_normal_angle_deg",
+          "must be in [0, 180]");
   require(config_.degeneracy_ratio >= 0.0 && config_.degeneracy_ratio < 1.0, "degeneracy_ratio", "must be in [0, 1)");
 }
 
@@ -206,8 +233,10 @@ RegistrationResult GicpRegistration::align(const core::PointCloud& source, const
     result.status = "disabled";
     return result;
   }
-  const std::vector<Eigen::Vector3f> source_points = prepare(source, config_.voxel_size_m);
-  const std::vector<Eigen::Vector3f> target_points = prepare(target, config_.voxel_size_m);
+  const Prepared source_set = prepare(source, config_.voxel_size_m);
+  const Prepared target_set = prepare(target, config_.voxel_size_m);
+  const std::vector<Eigen::Vector3f>& source_points = source_set.points;
+  const std::vector<Eigen::Vector3f>& target_points = target_set.points;
   RegistrationResult result;
   if (source_points.size() < kMinPoints || target_points.size() < kMinPoints || !T_target_source_guess.matrix().allFinite()) {
     result.T_target_source = T_target_source_guess;
@@ -224,7 +253,7 @@ RegistrationResult GicpRegistration::align(const core::PointCloud& source, const
     result.iterations = pcl.iterations;
     result.status = pcl.converged ? "converged" : "max iterations";
   } else {
-    result = align_native(source_points, target_points, target_tree, T_target_source_guess, config_);
+    result = align_native(source_set, target_set, target_tree, T_target_source_guess, config_);
   }
   result.source_points = source_points.size();
   result.target_points = target_points.size();

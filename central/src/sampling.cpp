@@ -17,15 +17,12 @@ SamplingResult gather(const core::PointCloud& cloud, const std::vector<char>& ke
   std::size_t count = 0;
   for (char k : keep) count += k ? 1 : 0;
   result.cloud.reserve(count, colored);
+  if (cloud.has_normals()) result.cloud.normals.reserve(count);
   result.kept.reserve(count);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!keep[i]) continue;
     result.kept.push_back(static_cast<std::uint32_t>(i));
-    if (colored) {
-      result.cloud.push_back(cloud.points[i], cloud.colors[i]);
-    } else {
-      result.cloud.push_back(cloud.points[i]);
-    }
+    result.cloud.push_back_from(cloud, i);
   }
   result.points_after = result.cloud.size();
   return result;

@@ -78,6 +78,7 @@ nlohmann::json to_json(const MergeResult& m) {
     nlohmann::json entry = {{"robot_id", r.robot_id}, {"points", r.points}, {"non_finite_removed", r.non_finite_removed},
                             {"placed", r.placed}, {"fine_matched", r.fine_matched}, {"status", r.status},
                             {"overlap_points", r.overlap_points}, {"overlap_mean_distance_m", r.overlap_mean_distance_m},
+                            {"overlap_normal_rejected", r.overlap_normal_rejected},
                             {"overlap_with", overlaps}, {"T_world_robot_prior", pose_json(r.T_world_robot_prior)},
                             {"T_world_robot", pose_json(r.T_world_robot)}};
     if (!r.registration.status.empty()) {

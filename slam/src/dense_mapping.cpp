@@ -73,18 +73,47 @@ core::PointCloud DenseMapper::back_project(const cv::Mat& depth_m, const cv::Mat
   const float step = static_cast<float>(config_.max_depth_step);
   const bool color_ok = !image.empty() && image.size() == depth_m.size();
   cloud.reserve(rays_.size() / 2);
+  cloud.normals.reserve(rays_.size() / 2);
   auto depth_at = [&](int row, int col) -> float {
     if (row >= depth_m.rows || col >= depth_m.cols) return 0.0f;
     return depth_m.at<float>(row, col);
+  };
+  // The point of sample (r, c) when it has usable depth.
+  auto sample_point = [&](int r, int c, Eigen::Vector3f& p) {
+    if (r < 0 || c < 0 || r >= sample_rows_ || c >= sample_cols_) return false;
+    const float z = depth_at(r * stride, c * stride);
+    if (!(z >= min_d && z <= max_d)) return false;
+    const Eigen::Vector2f& ray = rays_[static_cast<std::size_t>(r) * sample_cols_ + c];
+    if (!ray.allFinite()) return false;
+    p = Eigen::Vector3f(ray.x() * z, ray.y() * z, z);
+    return true;
+  };
+  // The surface normal at p from its grid neighbours on the same surface (right or else left, down or
+  // else up, each within the depth step), turned towards the camera; zero when there are none.
+  const float same_surface = step > 0.0f ? step : 0.05f;
+  auto normal_at = [&](int r, int c, const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    Eigen::Vector3f q;
+    auto neighbour = [&](int dr, int dc, Eigen::Vector3f& d) {
+      if (!sample_point(r + dr, c + dc, q) || std::abs(q.z() - p.z()) > same_surface * p.z()) return false;
+      d = (q - p) * static_cast<float>(dr + dc);  // points right / down either way
+      return true;
+    };
+    Eigen::Vector3f along_row, along_col;
+    if (!neighbour(0, 1, along_row) && !neighbour(0, -1, along_row)) return Eigen::Vector3f::Zero();
+    if (!neighbour(1, 0, along_col) && !neighbour(-1, 0, along_col)) return Eigen::Vector3f::Zero();
+    Eigen::Vector3f n = along_row.cross(along_col);
+    const float length = n.norm();
+    if (!(length > 0.0f)) return Eigen::Vector3f::Zero();
+    n /= length;
+    return n.dot(p) > 0.0f ? Eigen::Vector3f(-n) : n;
   };
   for (int r = 0; r < sample_rows_; ++r) {
     const int row = r * stride;
     for (int c = 0; c < sample_cols_; ++c) {
       const int col = c * stride;
-      const float z = depth_m.at<float>(row, col);
-      if (!(z >= min_d && z <= max_d)) continue;  // also drops NaN
-      const Eigen::Vector2f& ray = rays_[static_cast<std::size_t>(r) * sample_cols_ + c];
-      if (!ray.allFinite()) continue;
+      Eigen::Vector3f p;
+      if (!sample_point(r, c, p)) continue;  // also drops NaN
+      const float z = p.z();
       if (step > 0.0f) {
         // A sample whose neighbour (one stride right or down) jumps in depth sits on an edge, where
         // sensors report "flying pixels" between foreground and background.
@@ -94,12 +123,8 @@ core::PointCloud DenseMapper::back_project(const cv::Mat& depth_m, const cv::Mat
           continue;
         }
       }
-      const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);
-      if (color_ok) {
-        cloud.push_back(p, color_at(image, row, col));
-      } else {
-        cloud.push_back(p, core::PointCloud::Rgb{128, 128, 128});
-      }
+      const core::PointCloud::Rgb rgb = color_ok ? color_at(image, row, col) : core::PointCloud::Rgb{128, 128, 128};
+      cloud.push_back(p, rgb, normal_at(r, c, p));
     }
   }
   return cloud;
@@ -183,11 +208,7 @@ std::size_t DenseMapper::add_keyframe(KeyframeId id, const Eigen::Isometry3d& T_
       const Eigen::Vector3f& p = cloud_cam.points[i];
       if (!p.allFinite()) continue;
       if (!occupied_.insert(voxel_key(R * p + t)).second) continue;
-      if (colored) {
-        kept.push_back(p, cloud_cam.colors[i]);
-      } else {
-        kept.push_back(p);
-      }
+      kept.push_back_from(cloud_cam, i);
     }
   }
   const std::size_t n = kept.size();

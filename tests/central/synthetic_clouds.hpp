@@ -4,6 +4,7 @@
 // of x still constrains all six degrees of freedom. Points are spread over the surfaces by area, with
 // Gaussian noise, coloured per surface, from one seeded generator.
 
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -69,6 +70,67 @@ inline core::PointCloud room_cloud(std::size_t n, float x_min, float x_max, floa
     const Eigen::Vector3f jitter(noise(rng), noise(rng), noise(rng));
     const auto shade = static_cast<std::uint8_t>(40 + 13 * s);
     cloud.push_back(p + jitter, {shade, static_cast<std::uint8_t>(255 - shade), static_cast<std::uint8_t>(7 * s)});
+  }
+  return cloud;
+}
+
+// Two 5 x 3 m rooms side by side along x, parted by a 12 cm wall (x in [2.94, 3.06]) with a 1 m doorway
+// (y in [2, 3], up to 2.1 m), a box in each room. The wall's two faces are 12 cm apart and face opposite
+// ways: a robot in one room sees only its own face.
+inline std::vector<Rect> two_room_surfaces() {
+  const float Y = 5.0f, Z = 3.0f, a = 2.94f, b = 3.06f, door_lo = 2.0f, door_hi = 3.0f, door_z = 2.1f;
+  std::vector<Rect> rects = {
+      {{0, 0, 0}, {6, 0, 0}, {0, Y, 0}},  // floor
+      {{0, 0, Z}, {6, 0, 0}, {0, Y, 0}},  // ceiling
+      {{0, 0, 0}, {0, Y, 0}, {0, 0, Z}},  // wall x = 0
+      {{6, 0, 0}, {0, Y, 0}, {0, 0, Z}},  // wall x = 6
+      {{0, 0, 0}, {a, 0, 0}, {0, 0, Z}},  // walls y = 0 and y = 5 of both rooms
+      {{0, Y, 0}, {a, 0, 0}, {0, 0, Z}},
+      {{b, 0, 0}, {6 - b, 0, 0}, {0, 0, Z}},
+      {{b, Y, 0}, {6 - b, 0, 0}, {0, 0, Z}},
+  };
+  for (const float x : {a, b}) {  // the parting wall's two faces, around the doorway
+    rects.push_back({{x, 0, 0}, {0, door_lo, 0}, {0, 0, Z}});
+    rects.push_back({{x, door_hi, 0}, {0, Y - door_hi, 0}, {0, 0, Z}});
+    rects.push_back({{x, door_lo, door_z}, {0, door_hi - door_lo, 0}, {0, 0, Z - door_z}});
+  }
+  rects.push_back({{a, door_lo, 0}, {b - a, 0, 0}, {0, 0, door_z}});  // door jambs and head
+  rects.push_back({{a, door_hi, 0}, {b - a, 0, 0}, {0, 0, door_z}});
+  rects.push_back({{a, door_lo, door_z}, {b - a, 0, 0}, {0, door_hi - door_lo, 0}});
+  add_box(rects, {0.8f, 0.6f, 0.0f}, {1.8f, 1.4f, 0.9f});
+  add_box(rects, {4.2f, 3.4f, 0.0f}, {5.2f, 4.4f, 1.4f});
+  return rects;
+}
+
+// n points of the two rooms that a sensor at `eye` sees: surfaces in its room or through the doorway (no
+// other occlusion), Gaussian noise noise_m per axis, each with its surface's normal turned towards the eye.
+inline core::PointCloud two_room_cloud(std::size_t n, const Eigen::Vector3f& eye, float noise_m, std::uint32_t seed) {
+  const std::vector<Rect> rects = two_room_surfaces();
+  std::vector<float> areas;
+  for (const Rect& r : rects) areas.push_back(r.area());
+  std::mt19937 rng(seed);
+  std::discrete_distribution<std::size_t> pick(areas.begin(), areas.end());
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::normal_distribution<float> noise(0.0f, noise_m);
+  const bool eye_left = eye.x() < 3.0f;
+  core::PointCloud cloud;
+  cloud.reserve(n);
+  while (cloud.size() < n) {
+    const Rect& r = rects[pick(rng)];
+    const Eigen::Vector3f p = r.origin + unit(rng) * r.u + unit(rng) * r.v;
+    const bool p_left = p.x() < 2.94f + 1e-4f;
+    const bool p_right = p.x() > 3.06f - 1e-4f;
+    if ((eye_left && p_right) || (!eye_left && p_left)) {  // the other room: only through the doorway
+      const float s = (3.0f - eye.x()) / (p.x() - eye.x());
+      const Eigen::Vector3f through = eye + s * (p - eye);
+      if (through.y() < 2.0f || through.y() > 3.0f || through.z() > 2.1f) continue;
+    }
+    // A face of the parting wall is seen from its own side only.
+    if (std::abs(p.x() - 2.94f) < 1e-4f && !eye_left) continue;
+    if (std::abs(p.x() - 3.06f) < 1e-4f && eye_left) continue;
+    Eigen::Vector3f normal = r.u.cross(r.v).normalized();
+    if (normal.dot(eye - p) < 0.0f) normal = -normal;
+    cloud.push_back(p + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)), {128, 128, 128}, normal);
   }
   return cloud;
 }

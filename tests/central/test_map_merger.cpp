@@ -161,6 +161,30 @@ TEST(MapMerger, AnOverlapOfAWholeRoomHasNoDegenerateDirection) {
   expect_pose_near(merged.robots[1].T_world_robot, kPoseB, 0.005, 0.1);
 }
 
+// Two rooms parted by a 12 cm wall, one robot in each, seeing the other room through the doorway. The
+// wall's faces are 12 cm apart and face away from each other: pairing them pulls the robots together.
+// With the dense maps' normals only the surfaces both see (through the doorway) align them.
+TEST(MapMerger, OppositeFacesOfAThinWallDoNotPair) {
+  const Eigen::Isometry3d error = synthetic::pose(0.4, -0.3, 1.0, Eigen::Vector3d(0.02, -0.015, 0.01));
+  const RobotCloud a{0, synthetic::two_room_cloud(60000, {1.5f, 2.5f, 1.2f}, 0.003f, 21), Eigen::Isometry3d::Identity()};
+  const RobotCloud b{1, synthetic::two_room_cloud(60000, {4.5f, 2.5f, 1.2f}, 0.003f, 22), error};
+  ASSERT_TRUE(a.cloud_robot.has_normals());
+  const MergeResult merged = MapMerger(MapMergerConfig{}).merge({a, b});
+  const RobotMergeReport& r = merged.robots[1];
+  ASSERT_TRUE(r.fine_matched) << r.status;
+  EXPECT_GT(r.overlap_normal_rejected, 1000u) << "the wall's faces are mutual nearest neighbours";
+  expect_pose_near(r.T_world_robot, Eigen::Isometry3d::Identity(), 0.005, 0.2);
+  EXPECT_FALSE(merged.cloud_world.has_normals() && merged.cloud_world.normals.size() != merged.cloud_world.size());
+
+  // The oracle: without normals the faces pair and B is pulled centimetres towards A.
+  RobotCloud a_bare = a, b_bare = b;
+  a_bare.cloud_robot.normals.clear();
+  b_bare.cloud_robot.normals.clear();
+  const MergeResult pulled = MapMerger(MapMergerConfig{}).merge({a_bare, b_bare});
+  EXPECT_EQ(pulled.robots[1].overlap_normal_rejected, 0u);
+  EXPECT_GT(synthetic::pose_error(pulled.robots[1].T_world_robot, Eigen::Isometry3d::Identity()).first, 0.02);
+}
+
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
   // C sees x in [4.5, 6], which only B (x in [2, 5.2]) overlaps; C comes before B.
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();

@@ -79,6 +79,38 @@ TEST(OverlapFinder, TwoOverlappingPlanesPairOnlyWhereTheyOverlap) {
   EXPECT_EQ(selected.points[0], b.points[overlap.indices_b[0]]);
 }
 
+// The two faces of a 12 cm wall: mutual nearest neighbours within the radius, but facing away from each
+// other. With normals they do not pair (and are counted); a face seen from the same side does.
+TEST(OverlapFinder, OppositeNormalsDoNotPair) {
+  core::PointCloud a = plane(0.0f, 1.0f, 0.0f, 0.05f);
+  core::PointCloud b = plane(0.0f, 1.0f, 0.12f, 0.05f);
+  a.normals.assign(a.size(), Eigen::Vector3f(0, 0, -1));  // seen from below
+  b.normals.assign(b.size(), Eigen::Vector3f(0, 0, 1));   // seen from above
+  OverlapConfig config;
+  config.coarse_radius_m = 0.3;
+  const Overlap opposite = OverlapFinder(config).find(a, b);
+  EXPECT_TRUE(opposite.empty());
+  EXPECT_EQ(opposite.normal_rejected, a.size());
+
+  // The same side, tilted by 40 degrees (within the 60 degree default): they pair.
+  b.normals.assign(b.size(), Eigen::Vector3f(0, std::sin(0.7f), -std::cos(0.7f)));
+  const Overlap same = OverlapFinder(config).find(a, b);
+  EXPECT_EQ(same.size(), a.size());
+  EXPECT_EQ(same.normal_rejected, 0u);
+
+  // Unknown (zero) normals, a cloud without normals, or the check off: no pair is refused.
+  b.normals.assign(b.size(), Eigen::Vector3f(0, 0, 1));
+  b.normals[0] = Eigen::Vector3f::Zero();
+  EXPECT_EQ(OverlapFinder(config).find(a, b).size(), 1u);
+  core::PointCloud bare = b;
+  bare.normals.clear();
+  EXPECT_EQ(OverlapFinder(config).find(a, bare).size(), a.size());
+  config.max_normal_angle_deg = 180.0;
+  EXPECT_EQ(OverlapFinder(config).find(a, b).size(), a.size());
+  config.max_normal_angle_deg = 181.0;
+  EXPECT_THROW(OverlapFinder{config}, InputError);
+}
+
 TEST(OverlapFinder, EqualsBruteForceOnRoomClouds) {
   // Two rooms' worth of noisy points, B's cut shifted and turned a little: exact mutual pairs, ties
   // included (a lattice part makes equal distances common).

@@ -506,5 +506,47 @@ TEST(PointCloud, AppendKeepsColoursOnlyWhenBothHaveThem) {
   EXPECT_FALSE(a.has_colors());
 }
 
+TEST(PointCloud, NormalsFollowTransformsAppendsAndRemovals) {
+  PointCloud cloud;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cloud.push_back({1, 0, 0}, {1, 1, 1}, Eigen::Vector3f(1, 0, 0));
+  cloud.push_back({nan, 0, 0}, {2, 2, 2}, Eigen::Vector3f(0, 1, 0));
+  cloud.push_back({0, 0, 1}, {3, 3, 3}, Eigen::Vector3f(0, 0, 1));
+  ASSERT_TRUE(cloud.has_normals());
+  EXPECT_EQ(remove_non_finite(cloud), 1u);
+  ASSERT_TRUE(cloud.has_normals());
+  EXPECT_EQ(cloud.normals[1], Eigen::Vector3f(0, 0, 1));
+
+  // Rotated with the points, not translated.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(1.5707963267948966, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(5, 6, 7);
+  const PointCloud moved = transformed(cloud, T);
+  EXPECT_LT((moved.normals[0] - Eigen::Vector3f(0, 1, 0)).norm(), 1e-6f);
+  EXPECT_LT((moved.normals[1] - Eigen::Vector3f(0, 0, 1)).norm(), 1e-6f);
+
+  // push_back_from copies whatever the source has.
+  PointCloud copy;
+  copy.push_back_from(cloud, 1);
+  EXPECT_TRUE(copy.has_colors());
+  ASSERT_TRUE(copy.has_normals());
+  EXPECT_EQ(copy.normals[0], cloud.normals[1]);
+
+  // Appending keeps normals while every part has them; an empty part changes nothing.
+  PointCloud all;
+  all.append(cloud);
+  all.append(PointCloud{});
+  all.append(cloud);
+  EXPECT_TRUE(all.has_normals());
+  EXPECT_EQ(all.size(), 4u);
+  PointCloud plain;
+  plain.push_back({1, 1, 1}, {0, 0, 0});
+  all.append(plain);
+  EXPECT_FALSE(all.has_normals());
+  EXPECT_TRUE(all.has_colors());
+  all.clear();
+  EXPECT_TRUE(all.normals.empty());
+}
+
 }  // namespace
 }  // namespace fleetslam::core

@@ -78,6 +78,37 @@ TEST(DenseMapping, BackProjectsAFlatDepthImageExactlyWithColours) {
   EXPECT_EQ(cloud.colors.front(), (core::PointCloud::Rgb{30, 20, 10}));
 }
 
+// Normals from the depth image: a plane tilted 30 degrees about the camera's y axis gives every point
+// the plane's normal, turned towards the camera, including the last row and column (one-sided there).
+TEST(DenseMapping, NormalsOfATiltedPlaneFaceTheCamera) {
+  const core::SensorRig rig = test::synthetic_rgbd_rig();
+  const FrameBuilder builder(FrameBuilderConfig{}, rig);
+  const DenseMapper mapper(config_with_stride(8), builder);
+  const double tilt = 30.0 * 3.14159265358979323846 / 180.0;
+  const Eigen::Vector3d n(std::sin(tilt), 0.0, -std::cos(tilt));  // n . p = -2 for the plane's points
+  core::SensorFrame frame = flat_frame(rig, 0.0f);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const Eigen::Vector3d ray((u - 319.5) / 500.0, (v - 239.5) / 500.0, 1.0);
+      frame.depth_m.at<float>(v, u) = static_cast<float>(-2.0 / n.dot(ray));
+    }
+  }
+  const core::PointCloud cloud = mapper.keyframe_cloud(frame);
+  ASSERT_EQ(cloud.size(), static_cast<std::size_t>((640 / 8) * (480 / 8)));
+  ASSERT_TRUE(cloud.has_normals());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_NEAR(n.dot(cloud.points[i].cast<double>()), -2.0, 1e-4) << i;
+    EXPECT_GT(cloud.normals[i].cast<double>().dot(n), std::cos(0.5 * 3.14159265358979323846 / 180.0)) << i;
+  }
+  // A lone sample (no neighbour on the surface) has no normal.
+  core::SensorFrame lone = flat_frame(rig, 0.0f);
+  lone.depth_m.at<float>(80, 80) = 1.5f;
+  const core::PointCloud one = mapper.keyframe_cloud(lone);
+  ASSERT_EQ(one.size(), 1u);
+  ASSERT_TRUE(one.has_normals());
+  EXPECT_EQ(one.normals[0], Eigen::Vector3f::Zero());
+}
+
 TEST(DenseMapping, DistortedCameraUsesUndistortedRays) {
   core::SensorRig rig = test::synthetic_rgbd_rig();
   rig.cam0 = core::PinholeCamera(640, 480, 500.0, 500.0, 319.5, 239.5, core::RadTan{0.1, -0.05, 0.001, 0.0, 0.0});

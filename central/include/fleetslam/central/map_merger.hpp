@@ -79,6 +79,7 @@ struct RobotMergeReport {
   // robot already placed (robot id, pairs) -- the per-pair overlap sizes.
   std::size_t overlap_points = 0;
   double overlap_mean_distance_m = 0.0;
+  std::size_t overlap_normal_rejected = 0;  // nearest neighbours that face the other way (Overlap::normal_rejected)
   std::vector<std::pair<int, std::size_t>> overlap_with;
   RegistrationResult registration;     // the last GICP run (status empty when none ran)
   int refinement_rounds = 0;           // GICP rounds applied

@@ -8,7 +8,9 @@
 // Exact (equal distances go to the smaller index), so the sets do not depend on the processing order.
 // Only points within coarse_radius_m of the other cloud can pair: a voxel pre-pass (voxels of the radius)
 // keeps the others out of the kd-trees, so the cost follows the overlapping part, not the whole clouds.
-// Non-finite points never pair.
+// Non-finite points never pair. When both clouds carry normals, a pair whose normals (both known)
+// differ by more than max_normal_angle_deg is left out and counted: the two faces of a thin wall lie
+// closer than the radius, face opposite ways, and are not the same surface.
 
 #include <cstddef>
 #include <cstdint>
@@ -23,10 +25,13 @@ struct OverlapConfig {
   // Must exceed the prior's error where the clouds overlap: 5 degrees of heading error moves a point
   // 3 m away by 26 cm.
   double coarse_radius_m = 0.3;
+  // Generous: normals from depth images are noisy at edges and the prior may be off by degrees. 180: off.
+  double max_normal_angle_deg = 60.0;
 
   template <class V>
   void visit(V& v) {
     v("coarse_radius_m", coarse_radius_m, core::Limits<double>{1e-3, 100.0});
+    v("max_normal_angle_deg", max_normal_angle_deg, core::Limits<double>{0.0, 180.0});
   }
 };
 
@@ -35,6 +40,7 @@ struct Overlap {
   std::vector<std::uint32_t> indices_a;
   std::vector<std::uint32_t> indices_b;
   double mean_distance_m = 0.0;  // over the pairs
+  std::size_t normal_rejected = 0;  // mutual nearest neighbours left out for disagreeing normals
 
   std::size_t size() const { return indices_a.size(); }
   bool empty() const { return indices_a.empty(); }
@@ -44,7 +50,8 @@ class OverlapFinder {
  public:
   using Config = OverlapConfig;
 
-  // Throws InputError ("overlap.coarse_radius_m: ...") for a radius that is not positive.
+  // Throws InputError ("overlap.coarse_radius_m: ...") for a radius that is not positive, or an angle
+  // outside [0, 180].
   explicit OverlapFinder(const Config& config);
 
   Overlap find(const core::PointCloud& a_world, const core::PointCloud& b_world) const;

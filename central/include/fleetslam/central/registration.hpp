@@ -4,7 +4,10 @@
 // a plane (eigenvalues (plane_epsilon, 1, 1), "plane-to-plane"); correspondences are nearest neighbours
 // within max_correspondence_distance_m; the transform minimises
 //   sum_i d_i^T (C_i^B + R C_i^A R^T)^-1 d_i,  d_i = b_i - T a_i      (paper eq. 12)
-// Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost.
+// Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost. When both
+// clouds carry normals (the agents' dense maps do), a pair whose normals disagree by more than
+// max_normal_angle_deg is no correspondence: the two faces of a 12 cm wall are nearer than most prior
+// errors, and pairing them pulls the maps together by the wall's thickness.
 //
 // Degenerate overlaps (a corridor's floor and two walls say nothing about where along it a map lies):
 // each Gauss-Newton step is solved in the eigenbasis of the normal equations' information, taken about
@@ -45,6 +48,10 @@ struct RegistrationConfig {
   int covariance_neighbours = 20;  // PCL's default k
   double plane_epsilon = 1e-3;     // PCL's gicp_epsilon
   double degeneracy_ratio = 0.0;   // 0: every direction is updated (see above)
+  // Native backend, clouds with normals (PointCloud::normals): a nearest neighbour whose normal differs
+  // from the source point's by more than this is no correspondence (the opposite face of a thin wall).
+  // 180: normals are not used.
+  double max_normal_angle_deg = 60.0;
 
   template <class V>
   void visit(V& v) {
@@ -58,6 +65,7 @@ struct RegistrationConfig {
     v("covariance_neighbours", covariance_neighbours, core::Limits<int>{3, 200});
     v("plane_epsilon", plane_epsilon, core::Limits<double>{1e-9, 1.0});
     v("degeneracy_ratio", degeneracy_ratio, core::Limits<double>{0.0, 1.0});
+    v("max_normal_angle_deg", max_normal_angle_deg, core::Limits<double>{0.0, 180.0});
   }
 };
 

@@ -21,19 +21,28 @@ struct PointCloud {
 
   std::vector<Eigen::Vector3f> points;
   std::vector<Rgb> colors;  // empty, or one per point
+  // Empty, or one per point: the unit surface normal on the side the sensor saw the surface from (dense
+  // mapping estimates it from the depth image), or zero where it is unknown. Opposite faces of a thin
+  // wall lie centimetres apart but have opposite normals: the central unit tells them apart by these.
+  std::vector<Eigen::Vector3f> normals;
 
   std::size_t size() const { return points.size(); }
   bool empty() const { return points.empty(); }
   bool has_colors() const { return !colors.empty() && colors.size() == points.size(); }
+  bool has_normals() const { return !normals.empty() && normals.size() == points.size(); }
   void reserve(std::size_t n, bool with_colors = true);
   void clear();
   void push_back(const Eigen::Vector3f& p);
   void push_back(const Eigen::Vector3f& p, const Rgb& rgb);
-  // Appends `other`; colours are kept only when both clouds have them (or this one is empty).
+  void push_back(const Eigen::Vector3f& p, const Rgb& rgb, const Eigen::Vector3f& normal);
+  // Appends point i of `other` with the colour and normal it has (a cloud built this way from one
+  // source keeps that source's attributes).
+  void push_back_from(const PointCloud& other, std::size_t i);
+  // Appends `other`; colours (normals) are kept only when both clouds have them (or this one is empty).
   void append(const PointCloud& other);
 };
 
-// Points mapped by T (p' = T * p); colours unchanged.
+// Points mapped by T (p' = T * p), normals rotated; colours unchanged.
 PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T);
 void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T);
 
