@@ -248,6 +248,15 @@ core::Trajectory Server::robot_keyframes(int robot_id) const {
   return out;
 }
 
+std::vector<ServerKeyframe> Server::robot_keyframe_clouds(int robot_id) const {
+  const RobotState& robot = state(robot_id);
+  std::vector<ServerKeyframe> out;
+  out.reserve(robot.keyframes.size());
+  for (const auto& entry : robot.keyframes) out.push_back(entry.second);
+  std::stable_sort(out.begin(), out.end(), [](const ServerKeyframe& a, const ServerKeyframe& b) { return a.t_ns < b.t_ns; });
+  return out;
+}
+
 core::Trajectory Server::world_trajectory(int robot_id) const {
   if (last_merge_) {
     for (const RobotFusionReport& r : last_merge_->robots) {

@@ -100,7 +100,7 @@ void check_config(const OccupancyGridConfig& c) {
 
 OccupancyGrid::OccupancyGrid(const Config& config) : config_(config) { check_config(config_); }
 
-void OccupancyGrid::update(const core::PointCloud& cloud_world) {
+void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vector<SensorView>& views_world) {
   stats_ = OccupancyGridStats{};
   stats_.points = cloud_world.size();
   const double res = config_.resolution_m;
@@ -161,15 +161,74 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world) {
       ++stats_.obstacle_points;
     }
   }
+  std::vector<std::uint8_t> crossed(n, 0);
+  if (config_.carve_rays) {
+    for (const SensorView& view : views_world) carve(view, crossed);
+  }
   cells_.assign(n, CellState::kUnknown);
   for (std::size_t i = 0; i < n; ++i) {
     if (obstacle_count[i] >= config_.min_obstacle_points) {
       cells_[i] = CellState::kOccupied;
     } else if (floor_seen[i] != 0) {
       cells_[i] = CellState::kFree;
+    } else if (crossed[i] != 0) {
+      cells_[i] = CellState::kFree;
+      ++stats_.carved_cells;
     }
   }
   recompute_clearances();
+}
+
+// Walks each ray's cells in xy (Amanatides & Woo 1987) and marks those it crosses entirely below the top
+// of the obstacle band, up to carve_stop_short_m before its point.
+void OccupancyGrid::carve(const SensorView& view, std::vector<std::uint8_t>& crossed) {
+  const Eigen::Vector3d o = view.origin_world.cast<double>();
+  if (!o.allFinite()) return;
+  const double res = config_.resolution_m;
+  const double top = config_.floor_height_m + config_.obstacle_max_height_m;
+  const Eigen::Vector2d g = (o.head<2>() - origin_world_) / res;  // origin in cell units
+  for (const Eigen::Vector3f& pf : view.points_world) {
+    const Eigen::Vector3d p = pf.cast<double>();
+    if (!p.allFinite()) continue;
+    ++stats_.rays;
+    const Eigen::Vector3d d = p - o;
+    const double length = d.norm();
+    if (!(length > config_.carve_stop_short_m)) continue;
+    const double t_end = 1.0 - config_.carve_stop_short_m / length;  // ray parameter where carving stops
+    // Heights along the ray: z(t) = o.z + t d.z; carve the part below `top`, t in [t_begin, t_stop).
+    double t_begin = 0.0;
+    double t_stop = t_end;
+    if (o.z() > top) {  // a sensor above the band: from where the ray enters it
+      if (!(d.z() < 0.0)) continue;
+      t_begin = (top - o.z()) / d.z();
+    } else if (d.z() > 0.0) {
+      t_stop = std::min(t_end, (top - o.z()) / d.z());
+    }
+    if (!(t_stop > t_begin)) continue;
+    const Eigen::Vector2d step_cells = d.head<2>() / res;  // cells per unit t
+    int x = static_cast<int>(std::floor(g.x() + t_begin * step_cells.x()));
+    int y = static_cast<int>(std::floor(g.y() + t_begin * step_cells.y()));
+    const int sx = step_cells.x() > 0.0 ? 1 : -1;
+    const int sy = step_cells.y() > 0.0 ? 1 : -1;
+    const double dx = std::abs(step_cells.x()) > 0.0 ? 1.0 / std::abs(step_cells.x()) : kInf;  // t per cell
+    const double dy = std::abs(step_cells.y()) > 0.0 ? 1.0 / std::abs(step_cells.y()) : kInf;
+    const double fx = g.x() + t_begin * step_cells.x() - std::floor(g.x() + t_begin * step_cells.x());
+    const double fy = g.y() + t_begin * step_cells.y() - std::floor(g.y() + t_begin * step_cells.y());
+    // t at the next cell edge across x (y); never for a ray that does not move along x (y).
+    double next_x = dx < kInf ? t_begin + (sx > 0 ? 1.0 - fx : fx) * dx : kInf;
+    double next_y = dy < kInf ? t_begin + (sy > 0 ? 1.0 - fy : fy) * dy : kInf;
+    for (;;) {
+      if (std::min(next_x, next_y) >= t_stop) break;  // the cell the carving ends in is not crossed entirely
+      if (x >= 0 && y >= 0 && x < width_ && y < height_) crossed[index({x, y})] = 1;
+      if (next_x < next_y) {
+        x += sx;
+        next_x += dx;
+      } else {
+        y += sy;
+        next_y += dy;
+      }
+    }
+  }
 }
 
 void OccupancyGrid::set_cells(const Eigen::Vector2d& origin_world, int width, int height,

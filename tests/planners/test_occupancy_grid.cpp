@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -73,6 +76,119 @@ TEST(OccupancyGrid, MarksFloorWallsAndBox) {
   EXPECT_EQ(box_cells, 100u);
   EXPECT_GT(grid.stats().obstacle_points, 0u);
   EXPECT_EQ(grid.stats().free_cells + grid.stats().occupied_cells + grid.stats().unknown_cells, 120u * 120u);
+}
+
+// Whether the segment a-b (xy) meets the cell's square (Liang-Barsky clipping), with a tolerance.
+bool segment_meets_cell(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& lo, double size) {
+  double t0 = 0.0, t1 = 1.0;
+  const Eigen::Vector2d d = b - a;
+  for (int k = 0; k < 2; ++k) {
+    const double lo_k = lo[k] - 1e-9, hi_k = lo[k] + size + 1e-9;
+    if (std::abs(d[k]) < 1e-15) {
+      if (a[k] < lo_k || a[k] > hi_k) return false;
+      continue;
+    }
+    double ta = (lo_k - a[k]) / d[k], tb = (hi_k - a[k]) / d[k];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 <= t1;
+}
+
+// Free-space carving against a brute-force oracle: random rays from a sensor 0.3 m up to points on the
+// walls of an empty room whose floor was never seen. Every cell the ray passes through below the band's
+// top (densely sampled), except the one it stops in, is free; every free cell meets the carved part of
+// a ray; cells holding obstacle points stay occupied.
+TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {-0.5, -0.5, 4.5, 4.5};
+  OccupancyGrid grid(config);
+  core::PointCloud walls = room(4.0, 4.0);
+  walls.points.erase(std::remove_if(walls.points.begin(), walls.points.end(),
+                                    [](const Eigen::Vector3f& p) { return std::abs(p.z()) < 1e-6f && p.x() >= 0.0f &&
+                                                                          p.x() <= 4.0f && p.y() >= 0.0f && p.y() <= 4.0f; }),
+                     walls.points.end());  // no floor seen
+  add_box(walls, 2.5, 2.5, 2.8, 2.8, 0.0, 0.4);  // a low box the rays pass over
+  SensorView view;
+  view.origin_world = Eigen::Vector3f(1.0f, 1.2f, 0.3f);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> along(0.0f, 4.0f), height(0.0f, 2.5f);
+  for (int i = 0; i < 400; ++i) {
+    const float a = along(rng), z = height(rng);
+    switch (i % 4) {
+      case 0: view.points_world.emplace_back(a, -0.01f, z); break;
+      case 1: view.points_world.emplace_back(a, 4.01f, z); break;
+      case 2: view.points_world.emplace_back(-0.01f, a, z); break;
+      default: view.points_world.emplace_back(4.01f, a, z); break;
+    }
+  }
+  view.points_world.emplace_back(std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f);  // skipped
+  grid.update(walls, {view});
+  EXPECT_EQ(grid.stats().rays, 400u);
+  EXPECT_GT(grid.stats().carved_cells, 500u);
+
+  const double top = config.obstacle_max_height_m, res = config.resolution_m;
+  const Eigen::Vector3d o = view.origin_world.cast<double>();
+  std::vector<std::uint8_t> oracle(static_cast<std::size_t>(grid.width() * grid.height()), 0);
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> carved_parts;
+  for (std::size_t i = 0; i < 400; ++i) {
+    const Eigen::Vector3d d = view.points_world[i].cast<double>() - o;
+    double t_stop = 1.0 - config.carve_stop_short_m / d.norm();
+    if (d.z() > 0.0) t_stop = std::min(t_stop, (top - o.z()) / d.z());
+    carved_parts.emplace_back(o.head<2>(), (o + t_stop * d).head<2>());
+    const auto end_cell = grid.cell_of((o + t_stop * d).head<2>());
+    for (int k = 0; k < 20000; ++k) {
+      const double t = t_stop * k / 20000.0;
+      const auto cell = grid.cell_of((o + t * d).head<2>());
+      if (cell && cell != end_cell) oracle[grid.index(*cell)] = 1;
+    }
+  }
+  for (int y = 0; y < grid.height(); ++y) {
+    for (int x = 0; x < grid.width(); ++x) {
+      const CellIndex cell{x, y};
+      const Eigen::Vector2d lo = grid.origin_world() + res * Eigen::Vector2d(x, y);
+      if (grid.state(cell) == CellState::kOccupied) continue;
+      if (oracle[grid.index(cell)]) EXPECT_EQ(grid.state(cell), CellState::kFree) << "crossed: " << x << ", " << y;
+      if (grid.state(cell) == CellState::kFree) {
+        const bool meets = std::any_of(carved_parts.begin(), carved_parts.end(),
+                                       [&](const auto& s) { return segment_meets_cell(s.first, s.second, lo, res); });
+        EXPECT_TRUE(meets) << "free but no ray crossed it: " << x << ", " << y;
+      }
+    }
+  }
+  EXPECT_EQ(state_at(grid, 2.65, 2.65), CellState::kOccupied);  // the box stays
+  EXPECT_EQ(state_at(grid, -0.03, 2.0), CellState::kOccupied);   // so do the walls
+
+  // Off: nothing is carved; the floor-only grid knows nothing inside the room.
+  config.carve_rays = false;
+  OccupancyGrid plain(config);
+  plain.update(walls, {view});
+  EXPECT_EQ(plain.stats().carved_cells, 0u);
+  EXPECT_EQ(state_at(plain, 1.5, 1.5), CellState::kUnknown);
+}
+
+// A ray that climbs above the band's top clears only the cells it crosses below it; one from a sensor
+// above the band clears from where it enters the band.
+TEST(OccupancyGrid, RaysAboveTheBandClearNothingThere) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {0.0, 0.0, 5.0, 1.0};
+  config.carve_stop_short_m = 0.0;
+  OccupancyGrid grid(config);
+  SensorView climbing;
+  climbing.origin_world = Eigen::Vector3f(0.01f, 0.525f, 0.5f);
+  climbing.points_world = {Eigen::Vector3f(4.01f, 0.525f, 2.5f)};  // reaches z = 1.0 at x = 1.01
+  SensorView high;
+  high.origin_world = Eigen::Vector3f(0.01f, 0.325f, 3.0f);
+  high.points_world = {Eigen::Vector3f(4.01f, 0.325f, 0.0f)};  // enters the band (z = 1) at x = 2.677
+  grid.update(core::PointCloud{}, {climbing, high});
+  EXPECT_EQ(state_at(grid, 0.5, 0.525), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 0.975, 0.525), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 1.025, 0.525), CellState::kUnknown);  // the ray is above 1 m across it
+  EXPECT_EQ(state_at(grid, 3.0, 0.525), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 2.5, 0.325), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 2.725, 0.325), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 3.9, 0.325), CellState::kFree);
 }
 
 TEST(OccupancyGrid, AutomaticBoundsCoverTheCloudWithMargin) {

@@ -95,7 +95,8 @@ bool MissionPlanner::wants_plan(std::size_t robot) const {
   return !s.exhausted;
 }
 
-void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots) {
+void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots,
+                                  const std::vector<planners::SensorView>& views_world) {
   planners::OccupancyGridConfig config = planning_.grid;
   if (config.bounds_xy_m.empty()) {
     // The map's extent, the robots and their goals, padded: a robot can plan out of what it has seen.
@@ -122,7 +123,7 @@ void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::
   grid_ = planners::OccupancyGrid(config);
   planning_grid_ = grid_;
   if (config.bounds_xy_m.empty()) return;  // nothing seen and no robot: an empty grid
-  grid_.update(map_world);
+  grid_.update(map_world, views_world);
   std::vector<planners::Disk> driven;
   for (const RobotObservation& robot : robots) {
     for (const Eigen::Vector2d& p : robot.footprint_world) driven.push_back({p, mission_.footprint_free_radius_m});
@@ -389,9 +390,10 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
 }
 
 std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointCloud& map_world,
-                                                const std::vector<RobotObservation>& robots) {
+                                                const std::vector<RobotObservation>& robots,
+                                                const std::vector<planners::SensorView>& views_world) {
   FLEETSLAM_CHECK(robots.size() == robots_.size(), "one observation per robot");
-  rebuild_grid(map_world, robots);
+  rebuild_grid(map_world, robots, views_world);
   std::vector<PathCommand> commands;
   if (!planned()) return commands;
   std::vector<bool> needs_plan(robots_.size(), false);

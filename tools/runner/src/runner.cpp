@@ -246,7 +246,17 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         }
       }
     }
-    for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen)) world.set_path(c.robot, c.path_world);
+    // Where each keyframe's cloud was seen from, placed as the merge placed its robot: free-space carving.
+    std::vector<planners::SensorView> views;
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      if (!robots[r].T_world_robot_true) continue;
+      const Eigen::Isometry3d T_world_robot = server_T_world_robot(static_cast<int>(r));
+      for (const central::ServerKeyframe& kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
+        const Eigen::Isometry3d T_world_cam = T_world_robot * kf.T_robot_cam;
+        views.push_back({T_world_cam.translation().cast<float>(), core::transformed(kf.dense_cam, T_world_cam).points});
+      }
+    }
+    for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen, views)) world.set_path(c.robot, c.path_world);
     coverage_series.push_back({t_s, coverage(truth_space, mission.grid())});
     mission_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     ++mission_updates;

@@ -127,6 +127,9 @@ class Server {
   core::Trajectory robot_trajectory(int robot_id) const;
   // Keyframes in time order, robot frame.
   core::Trajectory robot_keyframes(int robot_id) const;
+  // The same keyframes with their dense clouds (camera frame): where each cloud was seen from, for
+  // free-space carving.
+  std::vector<ServerKeyframe> robot_keyframe_clouds(int robot_id) const;
   // After merge(): the robot's frames in the world frame (before: placed by the prior).
   core::Trajectory world_trajectory(int robot_id) const;
 

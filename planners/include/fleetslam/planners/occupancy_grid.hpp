@@ -4,9 +4,15 @@
 // Heights are relative to the floor (floor_height_m, world z). A cell is
 //   occupied  when at least min_obstacle_points points fall in it with height in
 //             [obstacle_min_height_m, obstacle_max_height_m] (the band the robot's body sweeps),
-//   free      when the floor was observed there (a point within floor_tolerance_m of the floor) and it
-//             is not occupied,
+//   free      when the floor was observed there (a point within floor_tolerance_m of the floor), or a
+//             sensor's ray crossed it low enough (see below), and it is not occupied,
 //   unknown   otherwise.
+// Free-space carving (carve_rays): a point seen from a sensor means nothing stood between them. Each ray
+// from a SensorView's origin to its points clears the cells it crosses while it is below the top of the
+// obstacle band (obstacle_max_height_m; a ray above it says nothing about what stands lower), up to
+// carve_stop_short_m before the point. A forward camera sees the floor only in sparse rows at grazing
+// angles; its rays fill the floor between them, as ROS costmaps' ray tracing does. Occupied wins: a cell
+// that holds obstacle points stays occupied whatever crossed it.
 // Inflation: every cell keeps its clearance, the distance between its centre and the centre of the
 // nearest occupied cell (exact Euclidean distance transform, Felzenszwalb & Huttenlocher 2012), and a
 // second clearance to the nearest occupied-or-unknown cell. A cell is traversable for the robot's centre
@@ -42,6 +48,12 @@ struct CellIndex {
   bool operator!=(const CellIndex& other) const { return !(*this == other); }
 };
 
+// Where a sensor stood and what it saw from there, in the world frame (for free-space carving).
+struct SensorView {
+  Eigen::Vector3f origin_world = Eigen::Vector3f::Zero();
+  std::vector<Eigen::Vector3f> points_world;
+};
+
 // A disk in the world's xy plane (blocked regions for deconfliction).
 struct Disk {
   Eigen::Vector2d center_world = Eigen::Vector2d::Zero();
@@ -74,6 +86,8 @@ struct OccupancyGridConfig {
   int min_frontier_cells = 5;            // smaller frontier clusters are dropped
   int max_frontier_cells = 40;           // longer clusters are cut into pieces of about this many cells (0: never)
   double frontier_goal_search_m = 1.0;
+  bool carve_rays = true;                // free-space carving along the SensorViews' rays (see above)
+  double carve_stop_short_m = 0.1;       // a ray clears cells up to this far before its point
 
   template <class V>
   void visit(V& v) {
@@ -90,6 +104,8 @@ struct OccupancyGridConfig {
     v("min_frontier_cells", min_frontier_cells, core::Limits<int>{1, 1 << 30});
     v("max_frontier_cells", max_frontier_cells, core::Limits<int>{0, 1 << 30});
     v("frontier_goal_search_m", frontier_goal_search_m, core::Limits<double>{0.0, 1000.0});
+    v("carve_rays", carve_rays);
+    v("carve_stop_short_m", carve_stop_short_m, core::Limits<double>{0.0, 100.0});
   }
 };
 
@@ -103,6 +119,8 @@ struct OccupancyGridStats {
   std::size_t free_cells = 0;
   std::size_t occupied_cells = 0;
   std::size_t unknown_cells = 0;
+  std::size_t rays = 0;             // carving rays cast (finite, from inside the grid's bounds or not)
+  std::size_t carved_cells = 0;     // free only because a ray crossed them (no floor point there)
 };
 
 class OccupancyGrid {
@@ -113,8 +131,10 @@ class OccupancyGrid {
   // empty, obstacle band below the floor tolerance or empty).
   explicit OccupancyGrid(const Config& config);
 
-  // Rebuilds every cell from a world-frame cloud. Non-finite points are skipped and counted.
-  void update(const core::PointCloud& cloud_world);
+  // Rebuilds every cell from a world-frame cloud, and carves free space along the views' rays (the
+  // views' points are used for nothing else: cloud_world holds the map). Non-finite points are skipped
+  // and counted; rays with a non-finite end are skipped.
+  void update(const core::PointCloud& cloud_world, const std::vector<SensorView>& views_world = {});
 
   // Sets the cells directly: width x height cells, row-major, cell (0, 0)'s corner at origin_world.
   // For ground-truth maps and tests. Throws InputError when cells.size() != width * height.
@@ -164,6 +184,7 @@ class OccupancyGrid {
 
  private:
   void recompute_clearances();
+  void carve(const SensorView& view, std::vector<std::uint8_t>& crossed);
   void place_frontier_goal(Frontier& frontier) const;
   template <class Fn>
   void for_cells_in(const std::vector<Disk>& disks_world, Fn&& fn);

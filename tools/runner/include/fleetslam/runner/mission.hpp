@@ -72,8 +72,10 @@ class MissionPlanner {
   MissionPlanner(const MissionConfig& mission, const PlanningConfig& planning, std::vector<MissionRobot> robots,
                  core::Logger logger = core::null_logger());
 
-  // robots: one observation per robot, in the constructor's order. Returns the controllers' new paths.
-  std::vector<PathCommand> update(double t_s, const core::PointCloud& map_world, const std::vector<RobotObservation>& robots);
+  // robots: one observation per robot, in the constructor's order; views: where the robots' sensors saw
+  // the map from (free-space carving, OccupancyGridConfig::carve_rays). Returns the controllers' new paths.
+  std::vector<PathCommand> update(double t_s, const core::PointCloud& map_world, const std::vector<RobotObservation>& robots,
+                                  const std::vector<planners::SensorView>& views_world = {});
 
   // A ground robot that finished its path has work left (a goal, a waypoint, or frontiers to look for).
   bool wants_plan(std::size_t robot) const;
@@ -103,7 +105,8 @@ class MissionPlanner {
     std::vector<planners::Pose2d> path_world;
   };
 
-  void rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots);
+  void rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots,
+                    const std::vector<planners::SensorView>& views_world);
   void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
   void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
                         std::vector<PathCommand>& looks);
