@@ -1,7 +1,10 @@
 // Relocalisation of a lost tracker: BoW candidates, BoW matching, PnP-RANSAC, pose optimisation and a
 // guided search by projection.
 
+#include <algorithm>
+#include <cstdio>
 #include <set>
+#include <string>
 
 #include <opencv2/calib3d.hpp>
 #include <spdlog/logger.h>
@@ -22,12 +25,32 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
   PlaceQuery query;
   query.max_results = 0;
   int tried = 0;
+  int implausible = 0;
+  std::string refused;
   for (const PlaceCandidate& candidate : inputs.database->query(bow.bow, query)) {
     const Keyframe* kf = map.keyframe(candidate.id);
     if (kf == nullptr || kf->component != component_) continue;
     if (++tried > c.max_candidates) break;
     w.clear_matches();
     const int inliers = relocalize_with(w, *kf, bow.features, map, result);
+    if (inliers >= c.min_inliers && c.check_jump && last_T_world_cam_ && w.frame.T_world_cam) {
+      // The jump from the last estimate against what the camera could have moved while lost.
+      const double lost_s = std::max(0.0, core::ns_to_seconds(w.frame.t_ns - lost_since_ns_));
+      const Eigen::Isometry3d delta = last_T_world_cam_->inverse() * *w.frame.T_world_cam;
+      const double shift_m = delta.translation().norm();
+      const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 57.29577951308232;
+      const double bound_m = c.max_jump_floor_m + c.max_jump_m_per_s * lost_s;
+      const double bound_deg = c.max_jump_floor_deg + c.max_jump_deg_per_s * lost_s;
+      if (shift_m > bound_m || turn_deg > bound_deg) {
+        ++implausible;
+        char text[192];
+        std::snprintf(text, sizeof(text), "keyframe %lld would move the camera %.2f m / %.1f deg after %.2f s lost (bound %.2f m / %.1f deg)",
+                      static_cast<long long>(kf->id), shift_m, turn_deg, lost_s, bound_m, bound_deg);
+        refused = text;
+        logger_->debug("t={} relocalisation refused: {}", core::format_seconds(w.frame.t_ns, 6), refused);
+        continue;
+      }
+    }
     if (inliers >= c.min_inliers) {
       reference_keyframe_ = kf->id;
       result.stage = "relocalization";
@@ -38,7 +61,8 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
     }
   }
   w.clear_matches();
-  result.reason = "relocalisation failed (" + std::to_string(tried) + " candidates)";
+  result.reason = "relocalisation failed (" + std::to_string(std::min(tried, c.max_candidates)) + " candidates" +
+                  (implausible > 0 ? ", " + std::to_string(implausible) + " refused as out of reach: " + refused : std::string()) + ")";
   return false;
 }
 

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <optional>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "fleetslam/core/log.hpp"
@@ -69,6 +72,52 @@ TEST(Relocalization, RecoversWithinOneSecondAfterATwoSecondBlackout) {
   agent.finish();
   const core::Trajectory trajectory = agent.trajectory();
   EXPECT_GE(static_cast<int>(trajectory.size()), kBefore + kAfter - 30);
+}
+
+// A "kidnap": after 2 s tracked and 0.2 s black, the camera shows the place it started from (0.5 m and
+// 25 degrees away). Relocalisation finds it (check off: the pose is right), but with a tight reach
+// (0.1 m + 0.5 m/s, 5 deg + 10 deg/s) it is refused as out of reach and the agent stays lost; a camera
+// that comes back where it was is accepted with the same bounds.
+TEST(Relocalization, APoseOutOfReachIsRefused) {
+  const test::SyntheticRoom room = test::default_room();
+  const core::SensorRig rig = test::synthetic_rgbd_rig();
+  const auto run = [&](bool check_jump, bool kidnapped) {
+    AgentConfig config;
+    config.tracking.relocalization.check_jump = check_jump;
+    config.tracking.relocalization.max_jump_floor_m = 0.1;
+    config.tracking.relocalization.max_jump_m_per_s = 0.5;
+    config.tracking.relocalization.max_jump_floor_deg = 5.0;
+    config.tracking.relocalization.max_jump_deg_per_s = 10.0;
+    Agent agent(config, rig, core::null_logger());
+    const std::vector<core::SensorFrame>& frames = blackout_sequence();
+    for (int i = 0; i < kBefore; ++i) agent.process(frames[static_cast<std::size_t>(i)]);
+    for (int i = kBefore; i < kBefore + 6; ++i) EXPECT_FALSE(agent.process(frames[static_cast<std::size_t>(i)]).has_pose());
+    std::optional<AgentUpdate> found;
+    std::string last_reason;
+    for (int k = 0; k < 10 && !found; ++k) {
+      const int seen = kidnapped ? k : kBefore + 6 + k;  // the view: the start, or where it went on
+      core::SensorFrame f = test::synthetic_frame(room, rig, seen);
+      const core::SensorFrame& slot = test::synthetic_frame(room, rig, kBefore + 6 + k);
+      f.t_ns = slot.t_ns;
+      f.sequence = slot.sequence;
+      const AgentUpdate u = agent.process(f);
+      last_reason = u.reason;
+      if (u.has_pose()) {
+        found = u;
+        // The agent's world is the first camera's, which is the synthetic world's (frame 0 at the origin).
+        EXPECT_LT((u.T_world_cam->translation() - f.T_world_cam_gt->translation()).norm(), 0.05) << "found at the right pose";
+      }
+    }
+    return std::make_pair(found, last_reason);
+  };
+  const auto free_run = run(false, true);
+  ASSERT_TRUE(free_run.first.has_value()) << "relocalisation must find the start: " << free_run.second;
+  EXPECT_TRUE(free_run.first->relocalized);
+  const auto refused = run(true, true);
+  EXPECT_FALSE(refused.first.has_value());
+  EXPECT_NE(refused.second.find("out of reach"), std::string::npos) << refused.second;
+  const auto back = run(true, false);
+  ASSERT_TRUE(back.first.has_value()) << back.second;
 }
 
 TEST(Relocalization, DeterministicModeRepeatsBitForBit) {

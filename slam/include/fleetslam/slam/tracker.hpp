@@ -14,7 +14,8 @@
 // Relocalisation (ORB-SLAM's idea, written here): the frame's BoW vector against the keyframe database,
 // BoW matches with each candidate's map points, PnP-RANSAC (OpenCV) on the 2D-3D pairs, pose-only
 // optimisation, a guided search of the candidate's neighbourhood points by projection, optimisation again;
-// then the local map stage as for any frame.
+// then the local map stage as for any frame. A pose the camera could not have reached from its last
+// estimate in the time lost is refused (RelocalizationConfig::check_jump) and the next candidate tried.
 // The keyframe decision is the policy's (keyframe_policy.hpp), fed with the frame's real quantities.
 // The tracker reads and updates the map (tracking counters) but inserts nothing: the agent hands the
 // frame to local mapping when the result asks for a keyframe.
@@ -52,6 +53,15 @@ struct RelocalizationConfig {
   int min_inliers = 50;              // after optimisation and guided search
   double new_map_after_s = 1.0;      // relocalisation failing this long (frames with features) -> new map
   int search_neighbours = 10;        // candidate's covisible keyframes whose points the guided search uses
+  // A relocalised pose must be one the camera could reach from its last estimate in the time it was lost:
+  // its centre within max_jump_floor_m + max_jump_m_per_s * lost_s and its rotation within
+  // max_jump_floor_deg + max_jump_deg_per_s * lost_s. A wall papered like another elsewhere in the map
+  // gives a confident pose in the wrong room; after a long loss anything goes. check_jump false: off.
+  bool check_jump = true;
+  double max_jump_floor_m = 0.3;
+  double max_jump_m_per_s = 1.0;
+  double max_jump_floor_deg = 20.0;
+  double max_jump_deg_per_s = 60.0;
   BowMatchConfig matching;
 
   template <class V>
@@ -65,6 +75,11 @@ struct RelocalizationConfig {
     v("min_inliers", min_inliers, core::Limits<int>{4, 100000});
     v("new_map_after_s", new_map_after_s, core::Limits<double>{0.0, 1e6});
     v("search_neighbours", search_neighbours, core::Limits<int>{0, 1000});
+    v("check_jump", check_jump);
+    v("max_jump_floor_m", max_jump_floor_m, core::Limits<double>{0.0, 1e6});
+    v("max_jump_m_per_s", max_jump_m_per_s, core::Limits<double>{0.0, 1e6});
+    v("max_jump_floor_deg", max_jump_floor_deg, core::Limits<double>{0.0, 360.0});
+    v("max_jump_deg_per_s", max_jump_deg_per_s, core::Limits<double>{0.0, 1e6});
     v("matching", matching);
   }
 };
