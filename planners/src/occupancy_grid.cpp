@@ -171,7 +171,7 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vecto
       cells_[i] = CellState::kOccupied;
     } else if (floor_seen[i] != 0) {
       cells_[i] = CellState::kFree;
-    } else if (crossed[i] != 0) {
+    } else if (crossed[i] != 0 && obstacle_count[i] == 0) {  // a cell with a few obstacle points stays unknown
       cells_[i] = CellState::kFree;
       ++stats_.carved_cells;
     }

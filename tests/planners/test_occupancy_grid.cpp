@@ -191,6 +191,27 @@ TEST(OccupancyGrid, RaysAboveTheBandClearNothingThere) {
   EXPECT_EQ(state_at(grid, 3.9, 0.325), CellState::kFree);
 }
 
+// A ray passing a cell that holds an obstacle point too few to call it occupied (min_obstacle_points)
+// leaves it unknown, not free: a sparse wall must not get holes. Cells up to the one the ray ends in are
+// carved, so no unknown band (and no frontier) is left in front of the wall.
+TEST(OccupancyGrid, RaysDoNotClearCellsWithObstaclePoints) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {0.0, 0.0, 3.0, 1.0};
+  config.min_obstacle_points = 3;
+  OccupancyGrid grid(config);
+  core::PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(1.525f, 0.525f, 0.5f));  // one point: not occupied
+  for (int k = 0; k < 5; ++k) cloud.push_back(Eigen::Vector3f(2.525f, 0.52f + 0.002f * k, 0.3f + 0.1f * k));  // a wall cell
+  SensorView view;
+  view.origin_world = Eigen::Vector3f(0.025f, 0.525f, 0.3f);
+  view.points_world = {Eigen::Vector3f(2.525f, 0.525f, 0.3f)};
+  grid.update(cloud, {view});
+  EXPECT_EQ(state_at(grid, 1.525, 0.525), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 1.475, 0.525), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 2.475, 0.525), CellState::kFree);  // right up to the wall
+  EXPECT_EQ(state_at(grid, 2.525, 0.525), CellState::kOccupied);
+}
+
 TEST(OccupancyGrid, AutomaticBoundsCoverTheCloudWithMargin) {
   OccupancyGrid grid(grid_config());
   grid.update(room(3.0, 2.0));

@@ -250,9 +250,17 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   // Each frontier's goal: the cell nearest its centroid that a robot can stand on, with unknown cells
   // as the assignment counts them (the grid's own goals count them occupied).
   std::vector<Eigen::Vector2d> frontier_goals;
+  const planners::UnknownCells unknown = planning_.assignment.unknown_cells;
+  const auto good_goal = [&](const Eigen::Vector2d& p) {
+    const std::optional<planners::CellIndex> cell = planning_grid_.cell_of(p);
+    return cell && planning_grid_.traversable(*cell, unknown) &&
+           planning_grid_.clearance_m(*cell, unknown) >= mission_.explore_goal_clearance_m;
+  };
   for (const planners::Frontier& f : frontiers) {
-    const std::optional<Eigen::Vector2d> g = planners::nearest_traversable(
-        planning_grid_, f.centroid_world, planning_grid_.config().frontier_goal_search_m, planning_.assignment.unknown_cells);
+    const std::optional<Eigen::Vector2d> g =
+        good_goal(f.centroid_world)
+            ? std::optional<Eigen::Vector2d>(f.centroid_world)
+            : planners::nearest_cell_centre(planning_grid_, f.centroid_world, planning_grid_.config().frontier_goal_search_m, good_goal);
     if (g) frontier_goals.push_back(*g);
   }
   for (const Eigen::Vector2d& g : frontier_goals) {

@@ -10,9 +10,11 @@
 // Free-space carving (carve_rays): a point seen from a sensor means nothing stood between them. Each ray
 // from a SensorView's origin to its points clears the cells it crosses while it is below the top of the
 // obstacle band (obstacle_max_height_m; a ray above it says nothing about what stands lower), up to
-// carve_stop_short_m before the point. A forward camera sees the floor only in sparse rows at grazing
-// angles; its rays fill the floor between them, as ROS costmaps' ray tracing does. Occupied wins: a cell
-// that holds obstacle points stays occupied whatever crossed it.
+// carve_stop_short_m before the point and never the cell the carving ends in. A forward camera sees the
+// floor only in sparse rows at grazing angles; its rays fill the floor between them, as ROS costmaps' ray
+// tracing does. Obstacles win: a cell holding any obstacle point (even fewer than min_obstacle_points)
+// is not carved. Stopping short leaves a band of unknown cells in front of every wall, and a frontier
+// there: keep carve_stop_short_m below the resolution (the wall's own cell is never carved anyway).
 // Inflation: every cell keeps its clearance, the distance between its centre and the centre of the
 // nearest occupied cell (exact Euclidean distance transform, Felzenszwalb & Huttenlocher 2012), and a
 // second clearance to the nearest occupied-or-unknown cell. A cell is traversable for the robot's centre
@@ -87,7 +89,7 @@ struct OccupancyGridConfig {
   int max_frontier_cells = 40;           // longer clusters are cut into pieces of about this many cells (0: never)
   double frontier_goal_search_m = 1.0;
   bool carve_rays = true;                // free-space carving along the SensorViews' rays (see above)
-  double carve_stop_short_m = 0.1;       // a ray clears cells up to this far before its point
+  double carve_stop_short_m = 0.0;       // a ray clears cells up to this far before its point
 
   template <class V>
   void visit(V& v) {

@@ -51,6 +51,10 @@ struct MissionConfig {
   double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
   double explore_min_goal_distance_m = 1.0;
+  // Explore: a frontier's goal is the cell nearest it this far from obstacles (0: any cell the robot
+  // fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
+  // a wall sees nothing an agent can track (depth below its range, a patch of bare texture).
+  double explore_goal_clearance_m = 0.0;
   // Explore: a robot with no reachable frontier turns a quarter further (a short step that way) to see
   // more, up to max_look_arounds times until it gets a frontier again. 0 (default): it waits. Turning on
   // the spot in front of a bare wall can cost an agent its tracking.
@@ -72,6 +76,7 @@ struct MissionConfig {
     v("lost_backtrack_m", lost_backtrack_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
     v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
+    v("explore_goal_clearance_m", explore_goal_clearance_m, core::Limits<double>{0.0, 10.0});
     v("look_around_step_m", look_around_step_m, core::Limits<double>{0.0, 10.0});
     v("max_look_arounds", max_look_arounds, core::Limits<int>{0, 1000});
   }
