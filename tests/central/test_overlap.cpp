@@ -92,11 +92,15 @@ TEST(OverlapFinder, OppositeNormalsDoNotPair) {
   EXPECT_TRUE(opposite.empty());
   EXPECT_EQ(opposite.normal_rejected, a.size());
 
-  // The same side, tilted by 40 degrees (within the 60 degree default): they pair.
-  b.normals.assign(b.size(), Eigen::Vector3f(0, std::sin(0.7f), -std::cos(0.7f)));
+  // Tilted by 100 degrees (within the 120 degree default; normals are noisy at edges): they pair. With
+  // a limit of 60 degrees they do not.
+  b.normals.assign(b.size(), Eigen::Vector3f(0, std::sin(1.745f), -std::cos(1.745f)));
   const Overlap same = OverlapFinder(config).find(a, b);
   EXPECT_EQ(same.size(), a.size());
   EXPECT_EQ(same.normal_rejected, 0u);
+  OverlapConfig strict = config;
+  strict.max_normal_angle_deg = 60.0;
+  EXPECT_TRUE(OverlapFinder(strict).find(a, b).empty());
 
   // Unknown (zero) normals, a cloud without normals, or the check off: no pair is refused.
   b.normals.assign(b.size(), Eigen::Vector3f(0, 0, 1));

@@ -254,7 +254,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   const auto good_goal = [&](const Eigen::Vector2d& p) {
     const std::optional<planners::CellIndex> cell = planning_grid_.cell_of(p);
     return cell && planning_grid_.traversable(*cell, unknown) &&
-           planning_grid_.clearance_m(*cell, unknown) >= mission_.explore_goal_clearance_m;
+           planning_grid_.clearance_m(*cell, planners::UnknownCells::kFree) >= mission_.explore_goal_clearance_m;
   };
   for (const planners::Frontier& f : frontiers) {
     const std::optional<Eigen::Vector2d> g =

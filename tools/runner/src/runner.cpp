@@ -181,7 +181,17 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     const sim::RobotConfig& rc = world.robot_config(r);
     robots[r].name = rc.name;
     robots[r].ground = rc.type == sim::RobotType::kDiffDrive;
-    robots[r].agent = std::make_unique<slam::Agent>(config_.agent, world.sensor_rig(r), logger);
+    slam::AgentConfig agent_config = config_.agent;
+    if (robots[r].ground) {
+      // A lost ground robot cannot have moved faster than its controller drives it: relocalisation's
+      // reach follows the robot's limits, with half again as margin (a pose farther away is a repeated
+      // texture elsewhere, not the robot).
+      slam::RelocalizationConfig& reloc = agent_config.tracking.relocalization;
+      constexpr double kDegreesPerRadian = 57.29577951308232;
+      reloc.max_jump_m_per_s = std::min(reloc.max_jump_m_per_s, 1.5 * rc.controller.max_speed_mps);
+      reloc.max_jump_deg_per_s = std::min(reloc.max_jump_deg_per_s, 1.5 * rc.controller.max_yaw_rate_radps * kDegreesPerRadian);
+    }
+    robots[r].agent = std::make_unique<slam::Agent>(agent_config, world.sensor_rig(r), logger);
     robots[r].T_body_cam = world.T_body_cam(r);
     MissionRobot mr{rc.name, robots[r].ground, {}};
     for (const sim::WaypointConfig& w : rc.waypoints) mr.waypoints_world.emplace_back(w.x, w.y);

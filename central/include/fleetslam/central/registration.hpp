@@ -6,7 +6,7 @@
 //   sum_i d_i^T (C_i^B + R C_i^A R^T)^-1 d_i,  d_i = b_i - T a_i      (paper eq. 12)
 // Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost. When both
 // clouds carry normals (the agents' dense maps do), a pair whose normals disagree by more than
-// max_normal_angle_deg is no correspondence: the two faces of a 12 cm wall are nearer than most prior
+// max_normal_angle_deg (120) is no correspondence: the two faces of a 12 cm wall are nearer than most prior
 // errors, and pairing them pulls the maps together by the wall's thickness.
 //
 // Degenerate overlaps (a corridor's floor and two walls say nothing about where along it a map lies):
@@ -51,7 +51,7 @@ struct RegistrationConfig {
   // Native backend, clouds with normals (PointCloud::normals): a nearest neighbour whose normal differs
   // from the source point's by more than this is no correspondence (the opposite face of a thin wall).
   // 180: normals are not used.
-  double max_normal_angle_deg = 60.0;
+  double max_normal_angle_deg = 120.0;  // as OverlapConfig::max_normal_angle_deg
 
   template <class V>
   void visit(V& v) {

@@ -51,8 +51,8 @@ struct MissionConfig {
   double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
   double explore_min_goal_distance_m = 1.0;
-  // Explore: a frontier's goal is the cell nearest it this far from obstacles (0: any cell the robot
-  // fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
+  // Explore: a frontier's goal is the cell nearest it this far from obstacles (seen ones: a frontier
+  // borders unknown floor by definition) (0: any cell the robot fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
   // a wall sees nothing an agent can track (depth below its range, a patch of bare texture).
   double explore_goal_clearance_m = 0.0;
   // Explore: a robot with no reachable frontier turns a quarter further (a short step that way) to see
