@@ -258,7 +258,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     }
     // Where each keyframe's cloud was seen from, placed as the merge placed its robot: free-space carving.
     std::vector<planners::SensorView> views;
-    for (std::size_t r = 0; r < robots.size(); ++r) {
+    for (std::size_t r = 0; r < robots.size() && config_.planner.grid.carve_rays; ++r) {
       if (!robots[r].T_world_robot_true) continue;
       const Eigen::Isometry3d T_world_robot = server_T_world_robot(static_cast<int>(r));
       for (const central::ServerKeyframe& kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
