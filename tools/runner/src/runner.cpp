@@ -191,7 +191,10 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       reloc.max_jump_m_per_s = std::min(reloc.max_jump_m_per_s, 1.5 * rc.controller.max_speed_mps);
       reloc.max_jump_deg_per_s = std::min(reloc.max_jump_deg_per_s, 1.5 * rc.controller.max_yaw_rate_radps * kDegreesPerRadian);
     }
-    robots[r].agent = std::make_unique<slam::Agent>(agent_config, world.sensor_rig(r), logger);
+    // The robot's agent logs under the robot's name (same sinks): "[bravo] frame 672 lost: ...".
+    auto agent_logger = std::make_shared<spdlog::logger>(rc.name, logger->sinks().begin(), logger->sinks().end());
+    agent_logger->set_level(logger->level());
+    robots[r].agent = std::make_unique<slam::Agent>(agent_config, world.sensor_rig(r), agent_logger);
     robots[r].T_body_cam = world.T_body_cam(r);
     MissionRobot mr{rc.name, robots[r].ground, {}};
     for (const sim::WaypointConfig& w : rc.waypoints) mr.waypoints_world.emplace_back(w.x, w.y);
