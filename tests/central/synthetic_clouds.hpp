@@ -51,9 +51,11 @@ inline std::vector<Rect> room_surfaces() {
   return rects;
 }
 
-// n points on the room's surfaces with x in [x_min, x_max], noise sigma noise_m per axis.
-inline core::PointCloud room_cloud(std::size_t n, float x_min, float x_max, float noise_m, std::uint32_t seed) {
-  const std::vector<Rect> rects = room_surfaces();
+// n points spread over the rects by area, one seeded generator: a drawn point p on rect s is kept when
+// accept(s, p); then add(cloud, s, p, p + noise) (noise sigma noise_m per axis) adds it.
+template <class Accept, class Add>
+core::PointCloud sample_surfaces(const std::vector<Rect>& rects, std::size_t n, float noise_m, std::uint32_t seed,
+                                 Accept accept, Add add) {
   std::vector<float> areas;
   for (const Rect& r : rects) areas.push_back(r.area());
   std::mt19937 rng(seed);
@@ -66,12 +68,21 @@ inline core::PointCloud room_cloud(std::size_t n, float x_min, float x_max, floa
     const std::size_t s = pick(rng);
     const Rect& r = rects[s];
     const Eigen::Vector3f p = r.origin + unit(rng) * r.u + unit(rng) * r.v;
-    if (p.x() < x_min || p.x() > x_max) continue;
+    if (!accept(s, p)) continue;
     const Eigen::Vector3f jitter(noise(rng), noise(rng), noise(rng));
-    const auto shade = static_cast<std::uint8_t>(40 + 13 * s);
-    cloud.push_back(p + jitter, {shade, static_cast<std::uint8_t>(255 - shade), static_cast<std::uint8_t>(7 * s)});
+    add(cloud, s, p, p + jitter);
   }
   return cloud;
+}
+
+// n points on the room's surfaces with x in [x_min, x_max], noise sigma noise_m per axis.
+inline core::PointCloud room_cloud(std::size_t n, float x_min, float x_max, float noise_m, std::uint32_t seed) {
+  return sample_surfaces(
+      room_surfaces(), n, noise_m, seed, [&](std::size_t, const Eigen::Vector3f& p) { return p.x() >= x_min && p.x() <= x_max; },
+      [](core::PointCloud& cloud, std::size_t s, const Eigen::Vector3f&, const Eigen::Vector3f& noisy) {
+        const auto shade = static_cast<std::uint8_t>(40 + 13 * s);
+        cloud.push_back(noisy, {shade, static_cast<std::uint8_t>(255 - shade), static_cast<std::uint8_t>(7 * s)});
+      });
 }
 
 // Two 5 x 3 m rooms side by side along x, parted by a 12 cm wall (x in [2.94, 3.06]) with a 1 m doorway
@@ -106,33 +117,25 @@ inline std::vector<Rect> two_room_surfaces() {
 // other occlusion), Gaussian noise noise_m per axis, each with its surface's normal turned towards the eye.
 inline core::PointCloud two_room_cloud(std::size_t n, const Eigen::Vector3f& eye, float noise_m, std::uint32_t seed) {
   const std::vector<Rect> rects = two_room_surfaces();
-  std::vector<float> areas;
-  for (const Rect& r : rects) areas.push_back(r.area());
-  std::mt19937 rng(seed);
-  std::discrete_distribution<std::size_t> pick(areas.begin(), areas.end());
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  std::normal_distribution<float> noise(0.0f, noise_m);
   const bool eye_left = eye.x() < 3.0f;
-  core::PointCloud cloud;
-  cloud.reserve(n);
-  while (cloud.size() < n) {
-    const Rect& r = rects[pick(rng)];
-    const Eigen::Vector3f p = r.origin + unit(rng) * r.u + unit(rng) * r.v;
+  const auto seen = [&](std::size_t, const Eigen::Vector3f& p) {
     const bool p_left = p.x() < 2.94f + 1e-4f;
     const bool p_right = p.x() > 3.06f - 1e-4f;
     if ((eye_left && p_right) || (!eye_left && p_left)) {  // the other room: only through the doorway
       const float s = (3.0f - eye.x()) / (p.x() - eye.x());
       const Eigen::Vector3f through = eye + s * (p - eye);
-      if (through.y() < 2.0f || through.y() > 3.0f || through.z() > 2.1f) continue;
+      if (through.y() < 2.0f || through.y() > 3.0f || through.z() > 2.1f) return false;
     }
     // A face of the parting wall is seen from its own side only.
-    if (std::abs(p.x() - 2.94f) < 1e-4f && !eye_left) continue;
-    if (std::abs(p.x() - 3.06f) < 1e-4f && eye_left) continue;
-    Eigen::Vector3f normal = r.u.cross(r.v).normalized();
-    if (normal.dot(eye - p) < 0.0f) normal = -normal;
-    cloud.push_back(p + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)), {128, 128, 128}, normal);
-  }
-  return cloud;
+    if (std::abs(p.x() - 2.94f) < 1e-4f && !eye_left) return false;
+    return !(std::abs(p.x() - 3.06f) < 1e-4f && eye_left);
+  };
+  return sample_surfaces(rects, n, noise_m, seed, seen,
+                         [&](core::PointCloud& cloud, std::size_t s, const Eigen::Vector3f& p, const Eigen::Vector3f& noisy) {
+                           Eigen::Vector3f normal = rects[s].u.cross(rects[s].v).normalized();
+                           if (normal.dot(eye - p) < 0.0f) normal = -normal;
+                           cloud.push_back(noisy, {128, 128, 128}, normal);
+                         });
 }
 
 // Rotation by roll/pitch/yaw (degrees, applied z-y-x) and a translation.
