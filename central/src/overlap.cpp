@@ -6,6 +6,7 @@
 
 #include "fleetslam/central/kdtree.hpp"
 #include "fleetslam/core/error.hpp"
+#include "normal_test.hpp"
 #include "voxel_hash.hpp"
 
 namespace fleetslam::central {
@@ -130,15 +131,12 @@ Overlap OverlapFinder::find(const core::PointCloud& a_world, const core::PointCl
     if (nearest_a[b] == a) partner[a] = Neighbour{b, n.distance_sq_m2};
   }
   const bool use_normals = a_world.has_normals() && b_world.has_normals() && config_.max_normal_angle_deg < 180.0;
-  constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
-  const auto min_cos = static_cast<float>(std::cos(config_.max_normal_angle_deg * kRadiansPerDegree));
+  const float min_cos = detail::min_normal_cos(config_.max_normal_angle_deg);
   double distance_sum = 0.0;
   for (std::uint32_t a : chosen) {
     if (!partner[a].found()) continue;
     if (use_normals) {
-      const Eigen::Vector3f& na = a_world.normals[a];
-      const Eigen::Vector3f& nb = b_world.normals[partner[a].index];
-      if (!na.isZero() && !nb.isZero() && na.dot(nb) < min_cos) {
+      if (!detail::normals_agree(a_world.normals[a], b_world.normals[partner[a].index], min_cos)) {
         ++overlap.normal_rejected;
         continue;
       }

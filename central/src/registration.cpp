@@ -11,6 +11,7 @@
 #include "fleetslam/central/kdtree.hpp"
 #include "fleetslam/central/sampling.hpp"
 #include "fleetslam/core/error.hpp"
+#include "normal_test.hpp"
 #include "with_pcl/registration_pcl.hpp"
 
 namespace fleetslam::central {
@@ -20,7 +21,6 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr std::size_t kMinPoints = 10;
-constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180.0;
 
 // Finite points (and their normals, when the cloud has them), uniformly sampled when voxel_size_m > 0.
 struct Prepared {
@@ -40,16 +40,6 @@ Prepared prepare(const core::PointCloud& cloud, double voxel_size_m) {
     core::remove_non_finite(kept);
   }
   return Prepared{std::move(kept.points), std::move(kept.normals)};
-}
-
-// Whether two normals (either may be unknown: zero) may belong to the same surface.
-bool normals_agree(const std::vector<Eigen::Vector3f>& normals_a, std::size_t a, const Eigen::Matrix3f& R_a,
-                   const std::vector<Eigen::Vector3f>& normals_b, std::size_t b, float min_cos) {
-  if (normals_a.empty() || normals_b.empty()) return true;
-  const Eigen::Vector3f& na = normals_a[a];
-  const Eigen::Vector3f& nb = normals_b[b];
-  if (na.isZero() || nb.isZero()) return true;
-  return (R_a * na).dot(nb) >= min_cos;
 }
 
 // GICP's plane-to-plane covariances (Segal et al. section III-B): the covariance of the k nearest points,
@@ -113,9 +103,8 @@ RegistrationResult align_native(const Prepared& source_set, const Prepared& targ
                                 const Eigen::Isometry3d& guess, const RegistrationConfig& config) {
   const std::vector<Eigen::Vector3f>& source = source_set.points;
   const std::vector<Eigen::Vector3f>& target = target_set.points;
-  const float min_normal_cos = config.max_normal_angle_deg >= 180.0
-                                   ? -2.0f
-                                   : static_cast<float>(std::cos(config.max_normal_angle_deg * kRadiansPerDegree));
+  const float min_normal_cos = detail::min_normal_cos(config.max_normal_angle_deg);
+  const bool use_normals = !source_set.normals.empty() && !target_set.normals.empty();
   const KdTree source_tree(source);
   const std::vector<Eigen::Matrix3d> source_cov =
       plane_covariances(source, source_tree, config.covariance_neighbours, config.plane_epsilon);
@@ -147,7 +136,10 @@ RegistrationResult align_native(const Prepared& source_set, const Prepared& targ
       const Neighbour n = target_tree.nearest(p.cast<float>(), max_distance);
       if (!n.found()) continue;
       // Opposite faces of a thin wall are near but not the same surface.
-      if (!normals_agree(source_set.normals, i, R_f, target_set.normals, n.index, min_normal_cos)) continue;
+      if (use_normals &&
+          !detail::normals_agree(R_f * source_set.normals[i], target_set.normals[n.index], min_normal_cos)) {
+        continue;
+      }
       ++correspondences;
       const Eigen::Vector3d d = target[n.index].cast<double>() - p;
       const Eigen::Matrix3d M = (target_cov[n.index] + R * source_cov[i] * R.transpose()).inverse();

@@ -2,11 +2,11 @@
 // guided search by projection.
 
 #include <algorithm>
-#include <cstdio>
 #include <set>
 #include <string>
 
 #include <opencv2/calib3d.hpp>
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
 #include "fleetslam/slam/tracker.hpp"
@@ -43,10 +43,8 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
       const double bound_deg = c.max_jump_floor_deg + c.max_jump_deg_per_s * lost_s;
       if (shift_m > bound_m || turn_deg > bound_deg) {
         ++implausible;
-        char text[192];
-        std::snprintf(text, sizeof(text), "keyframe %lld would move the camera %.2f m / %.1f deg after %.2f s lost (bound %.2f m / %.1f deg)",
-                      static_cast<long long>(kf->id), shift_m, turn_deg, lost_s, bound_m, bound_deg);
-        refused = text;
+        refused = fmt::format("keyframe {} would move the camera {:.2f} m / {:.1f} deg after {:.2f} s lost (bound {:.2f} m / {:.1f} deg)",
+                              kf->id, shift_m, turn_deg, lost_s, bound_m, bound_deg);
         logger_->debug("t={} relocalisation refused: {}", core::format_seconds(w.frame.t_ns, 6), refused);
         continue;
       }
