@@ -90,7 +90,7 @@ std::unique_ptr<core::FrameSource> open_source(const ReplayOptions& o,
                                                const core::Logger& logger) {
   core::DatasetConfig config;
   config.groundtruth_file = o.groundtruth;
-  config.load_imu = false;  // the agent does not use the IMU yet
+  config.load_imu = true;  // the agent predicts rotations with the gyroscope (tracking.gyro)
   config.stereo = o.sensor != "rgbd";
   if (o.max_frames >= 0) config.stop_index = o.max_frames;
   if (settings) {

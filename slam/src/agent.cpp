@@ -56,6 +56,12 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
       tracker(c.tracking, c.keyframes, logger),
       mapper(c.mapping, logger),
       dense(c.dense, builder) {
+  if (config.tracking.gyro.enabled && rig.imu && rig.T_body_cam0) {
+    // The tracker's camera is the rectified left one; the IMU frame is the body frame of T_body_cam0.
+    const Eigen::Matrix3d R_body_cam = (*rig.T_body_cam0 * builder.T_cam0_rect0()).linear();
+    gyro.emplace(R_body_cam.transpose(), config.tracking.gyro.max_gap_s);
+    logger->info("gyroscope: tracking predicts rotations with it (bias estimated online)");
+  }
   if (config.place_recognition.enabled) {
     vocabulary = load_place_vocabulary(config.place_recognition);
     if (config.loop_closing.enabled) loop_closer.emplace(config.loop_closing, logger);
@@ -159,6 +165,7 @@ AgentUpdate Agent::process(const core::SensorFrame& sensor) {
   u.robot_id = sensor.robot_id;
   u.sequence = sensor.sequence;
   u.t_ns = sensor.t_ns;
+  if (s.gyro) s.buffer_imu(sensor.imu);  // a rejected frame's samples still belong to the next interval
   if (s.last_t_ns && sensor.t_ns <= *s.last_t_ns) {
     u.reason = "timestamp " + core::format_seconds(sensor.t_ns, 6) + " s does not advance past the previous " +
                core::format_seconds(*s.last_t_ns, 6) + " s";
@@ -178,10 +185,11 @@ AgentUpdate Agent::process(const core::SensorFrame& sensor) {
   }
   std::string notes = built.ok() ? "" : built.reason;
   if (s.last_t_ns) s.note_gap(sensor.t_ns - *s.last_t_ns, notes);
+  const std::optional<Eigen::Matrix3d> gyro_R_prev_cur = s.gyro_rotation(sensor.t_ns);
   s.last_t_ns = sensor.t_ns;
   {
     const std::lock_guard<std::mutex> lock(s.map_mutex);
-    s.track_and_map(built.frame, u);
+    s.track_and_map(built.frame, gyro_R_prev_cur, u);
     const Stopwatch dense;
     s.update_dense(sensor);
     u.timings.dense_ms = dense.elapsed_ms();

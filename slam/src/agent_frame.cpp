@@ -1,5 +1,6 @@
 // One frame through the agent once its input is accepted: tracking, keyframe insertion, local mapping.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -34,8 +35,28 @@ Eigen::Isometry3d Agent::Impl::to_cam0(const Eigen::Isometry3d& T_world_cam) con
   return T_world_cam * builder.T_cam0_rect0().inverse();
 }
 
-void Agent::Impl::track_and_map(Frame& frame, AgentUpdate& u) {
+void Agent::Impl::buffer_imu(const std::vector<core::ImuSample>& samples) {
+  // Bounded: a stream of rejected frames must not grow it without end (a minute at 1 kHz).
+  constexpr std::size_t kMaxBuffered = 60000;
+  imu_buffer.insert(imu_buffer.end(), samples.begin(), samples.end());
+  if (imu_buffer.size() > kMaxBuffered) {
+    imu_buffer.erase(imu_buffer.begin(), imu_buffer.end() - static_cast<std::ptrdiff_t>(kMaxBuffered));
+  }
+}
+
+std::optional<Eigen::Matrix3d> Agent::Impl::gyro_rotation(core::TimeNs t_ns) {
+  if (!gyro) return std::nullopt;
+  std::optional<Eigen::Matrix3d> R;
+  if (last_t_ns) R = gyro->rotation(imu_buffer, *last_t_ns, t_ns);
+  const auto used = std::find_if(imu_buffer.begin(), imu_buffer.end(),
+                                 [t_ns](const core::ImuSample& s) { return s.t_ns > t_ns; });
+  imu_buffer.erase(imu_buffer.begin(), used);
+  return R;
+}
+
+void Agent::Impl::track_and_map(Frame& frame, const std::optional<Eigen::Matrix3d>& gyro_R_prev_cur, AgentUpdate& u) {
   TrackingInputs inputs;
+  inputs.gyro_R_prev_cur = gyro_R_prev_cur;
   inputs.fps = rig.fps;
   inputs.local_mapping_queue = worker ? worker->pending() : 0;
   inputs.local_mapping_idle = inputs.local_mapping_queue == 0;

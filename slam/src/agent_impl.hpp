@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fleetslam/slam/agent.hpp"
+#include "fleetslam/slam/gyro.hpp"
 #include "dense_worker.hpp"
 #include "mapping_worker.hpp"
 
@@ -28,7 +29,10 @@ struct Agent::Impl {
   void reject(AgentUpdate& u) const;
   void note_gap(core::TimeNs dt_ns, std::string& notes) const;
   // Tracking, keyframe insertion and (deterministic mode) local mapping; the map lock is held.
-  void track_and_map(Frame& frame, AgentUpdate& u);
+  void track_and_map(Frame& frame, const std::optional<Eigen::Matrix3d>& gyro_R_prev_cur, AgentUpdate& u);
+  // IMU samples waiting for the next accepted frame, and the gyro rotation since the last accepted one.
+  void buffer_imu(const std::vector<core::ImuSample>& samples);
+  std::optional<Eigen::Matrix3d> gyro_rotation(core::TimeNs t_ns);
   void insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference);
   void report_changes(AgentUpdate& u);
   // BoW of a new keyframe; loop closing at a keyframe (deterministic mode: called inline; threaded mode:
@@ -62,6 +66,8 @@ struct Agent::Impl {
   std::vector<KeyframeId> new_keyframes;     // inserted during the current process() call
   std::set<KeyframeId> dense_changed;        // dense cloud to send with the next snapshot
   std::optional<core::TimeNs> last_t_ns;
+  std::optional<GyroIntegrator> gyro;        // when the rig has a gyroscope and tracking.gyro is on
+  std::vector<core::ImuSample> imu_buffer;   // samples after the last accepted frame
   std::unique_ptr<DenseWorker> dense_worker; // threaded mode only; stops before `dense` goes
   std::unique_ptr<MappingWorker> worker;     // threaded mode only; last, so it stops first
 };

@@ -2,6 +2,8 @@
 
 #include "fleetslam/slam/tracker.hpp"
 
+#include <algorithm>
+
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
@@ -39,6 +41,7 @@ Tracker::Tracker(const TrackingConfig& config, const KeyframePolicyConfig& keyfr
 TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inputs) {
   FLEETSLAM_CHECK(frame.map_points.size() == frame.size() && frame.outlier.size() == frame.size(),
                   "Frame::finalize() must run before tracking");
+  accumulate_gyro(frame.t_ns, inputs);
   if (state_ == TrackingState::kNotInitialized) {
     if (!inputs.localization_only) return initialize(frame, inputs);
     TrackingResult result;
@@ -56,19 +59,36 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   const bool can_relocalize = config_.relocalization.enabled && inputs.vocabulary != nullptr &&
                               inputs.database != nullptr && inputs.database->size() > 0;
   const bool relocalizing = recovering && ++lost_frames_ > config_.recovery_frames;
-  if (relocalizing && !can_relocalize && !inputs.localization_only) return initialize(frame, inputs);
+  // The gyro keeps the orientation through the loss: the last local map seen from there comes first.
+  const bool gyro_recovery = recovering && gyro_prediction_valid() &&
+                             core::ns_to_seconds(frame.t_ns - lost_since_ns_) <= config_.gyro.recovery_s;
+  const bool start_new_map = relocalizing && !can_relocalize && !inputs.localization_only;
+  if (start_new_map && !gyro_recovery) {
+    dead_reckon(map, frame.t_ns);
+    return initialize(frame, inputs);
+  }
 
   TrackingResult result;
   result.features = static_cast<int>(frame.size());
   Working w(frame);
   bool ok = false;
   if (relocalizing) {
-    ok = relocalize(w, map, inputs, result);
+    ok = gyro_recovery && track_from_gyro(w, map, result);
+    if (!ok && start_new_map) {
+      w.clear_matches();
+      dead_reckon(map, frame.t_ns);
+      return initialize(frame, inputs);
+    }
+    if (!ok) {
+      w.clear_matches();
+      ok = relocalize(w, map, inputs, result);
+    }
     if (!ok && !inputs.localization_only && static_cast<int>(frame.size()) >= config_.init_min_features) {
       if (!relocalization_failing_since_ns_) relocalization_failing_since_ns_ = frame.t_ns;
       const double failing_s = core::ns_to_seconds(frame.t_ns - *relocalization_failing_since_ns_);
       if (failing_s >= config_.relocalization.new_map_after_s) {
         w.clear_matches();
+        dead_reckon(map, frame.t_ns);
         TrackingResult started = initialize(frame, inputs);
         if (started.initialized) {
           started.reason = "relocalisation failed for " + core::format_seconds(
@@ -80,6 +100,10 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
     }
   } else {
     ok = !recovering && track_last_frame(w, map, result);
+    if (!ok && gyro_recovery) {
+      w.clear_matches();
+      ok = track_from_gyro(w, map, result);
+    }
     if (!ok) {
       w.clear_matches();
       ok = track_reference_keyframe(w, map, result, recovering);
@@ -123,6 +147,8 @@ void Tracker::lose(Working& w, const Map& map, TrackingResult& result) {
     lost_frames_ = 1;
     lost_since_ns_ = w.frame.t_ns;
     relocalization_failing_since_ns_.reset();
+  } else {
+    dead_reckon(map, w.frame.t_ns);
   }
   state_ = TrackingState::kLost;  // the velocity stays: recovery predicts with it
   result.state = state_;
@@ -172,6 +198,9 @@ void Tracker::keyframe_inserted(KeyframeId id, const Map& map) {
   if (!last_frame_ || last_frame_->t_ns != kf->t_ns) {
     last_frame_ = kf->frame;
     velocity_.reset();
+    gyro_steps_ = 0;
+    gyro_R_last_cur_.reset();
+    if (previous_input_t_ns_ == kf->t_ns) gyro_R_last_cur_ = Eigen::Matrix3d::Identity();
   }
   last_frame_->map_points = kf->frame.map_points;
   last_frame_->T_world_cam = kf->T_world_cam;
@@ -189,6 +218,8 @@ void Tracker::start_in_map(int component) {
   relocalization_failing_since_ns_.reset();
   last_frame_.reset();
   velocity_.reset();
+  gyro_R_last_cur_.reset();
+  gyro_steps_ = 0;
   last_T_world_cam_.reset();
   reference_keyframe_ = -1;
   last_reference_ = -1;
@@ -200,8 +231,20 @@ void Tracker::remember(const Working& w, const Map& map, bool tracked) {
   if (tracked && last_frame_ && T_wl && w.frame.t_ns > last_frame_->t_ns) {
     velocity_ = T_wc.inverse() * *T_wl;
     velocity_dt_ns_ = w.frame.t_ns - last_frame_->t_ns;
+    // Bias: what the gyro says beyond the visual rotation between consecutive tracked frames.
+    if (gyro_raw_step_ && gyro_steps_ == 1) {
+      const double dt_s = core::ns_to_seconds(velocity_dt_ns_);
+      const Eigen::Matrix3d R_visual = T_wl->linear().transpose() * T_wc.linear();
+      const Eigen::Vector3d residual = core::so3_log(R_visual.transpose() * *gyro_raw_step_) / dt_s - gyro_bias_cam_;
+      if (residual.norm() <= config_.gyro.max_bias_residual_radps) {
+        gyro_bias_cam_ += std::min(1.0, dt_s / config_.gyro.bias_time_constant_s) * residual;
+      }
+    }
   }
   last_frame_ = w.frame;
+  gyro_steps_ = 0;
+  gyro_R_last_cur_.reset();
+  if (config_.gyro.enabled) gyro_R_last_cur_ = Eigen::Matrix3d::Identity();
   last_reference_ = reference_keyframe_;
   const std::optional<Eigen::Isometry3d> T_w_ref = map.keyframe_pose(reference_keyframe_);
   T_ref_last_ = T_w_ref ? T_w_ref->inverse() * T_wc : Eigen::Isometry3d::Identity();
@@ -223,17 +266,53 @@ std::optional<Eigen::Isometry3d> Tracker::last_frame_pose(const Map& map) const 
 }
 
 // T_cam_world of a frame at t_ns under constant velocity. The velocity is rescaled when the time step
-// differs (a dropped frame), through the SE(3) logarithm.
+// differs (a dropped frame), through the SE(3) logarithm. With the gyro the rotation is the integrated
+// one (and a prediction exists without a velocity: rotation only); while lost, the translation is then
+// extrapolated for gyro.max_translation_extrapolation_s at most.
 std::optional<Eigen::Isometry3d> Tracker::predicted_pose(const Map& map, core::TimeNs t_ns) const {
   const std::optional<Eigen::Isometry3d> T_wl = last_frame_pose(map);
-  if (!T_wl || !velocity_ || velocity_dt_ns_ <= 0) return std::nullopt;
-  const core::TimeNs dt_ns = t_ns - last_frame_->t_ns;
-  Eigen::Isometry3d step = *velocity_;
-  if (dt_ns != velocity_dt_ns_) {
+  const bool gyro = gyro_prediction_valid();
+  const bool moving = velocity_ && velocity_dt_ns_ > 0;
+  if (!T_wl || (!moving && !gyro)) return std::nullopt;
+  core::TimeNs dt_ns = t_ns - last_frame_->t_ns;
+  if (gyro && state_ == TrackingState::kLost) {
+    dt_ns = std::min(dt_ns, core::seconds_to_ns(config_.gyro.max_translation_extrapolation_s));
+  }
+  Eigen::Isometry3d step = moving ? *velocity_ : Eigen::Isometry3d::Identity();  // T_cur_last
+  if (moving && dt_ns != velocity_dt_ns_) {
     const double ratio = static_cast<double>(dt_ns) / static_cast<double>(velocity_dt_ns_);
     step = core::se3_exp(ratio * core::se3_log(*velocity_));
   }
-  return step * T_wl->inverse();
+  if (!gyro) return step * T_wl->inverse();
+  Eigen::Isometry3d T_last_cur = step.inverse();
+  T_last_cur.linear() = *gyro_R_last_cur_;
+  return (*T_wl * T_last_cur).inverse();
+}
+
+// Chains this frame's gyro rotation (bias removed) onto the rotation since the last tracked frame; a frame
+// without one ends the chain until the next tracked frame.
+void Tracker::accumulate_gyro(core::TimeNs t_ns, const TrackingInputs& inputs) {
+  gyro_raw_step_.reset();
+  const std::optional<core::TimeNs> previous_t_ns = previous_input_t_ns_;
+  previous_input_t_ns_ = t_ns;
+  if (!config_.gyro.enabled || !inputs.gyro_R_prev_cur || !previous_t_ns || t_ns <= *previous_t_ns) {
+    gyro_R_last_cur_.reset();
+    return;
+  }
+  gyro_raw_step_ = inputs.gyro_R_prev_cur;
+  if (!gyro_R_last_cur_) return;
+  const double dt_s = core::ns_to_seconds(t_ns - *previous_t_ns);
+  gyro_R_last_cur_ = *gyro_R_last_cur_ * *inputs.gyro_R_prev_cur * core::so3_exp(-gyro_bias_cam_ * dt_s);
+  ++gyro_steps_;
+}
+
+void Tracker::dead_reckon(const Map& map, core::TimeNs t_ns) {
+  if (!gyro_prediction_valid()) return;
+  if (const auto T_cw = predicted_pose(map, t_ns)) last_T_world_cam_ = T_cw->inverse();
+}
+
+bool Tracker::gyro_prediction_valid() const {
+  return config_.gyro.enabled && gyro_R_last_cur_.has_value() && gyro_steps_ > 0 && last_frame_.has_value();
 }
 
 }  // namespace fleetslam::slam

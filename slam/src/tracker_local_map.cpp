@@ -108,6 +108,49 @@ bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
   return true;
 }
 
+// Recovery with the gyro: the local map of the last tracked frame, projected from the predicted pose with a
+// wider window (the translation is a guess), then pose optimisation; the regular local map stage follows.
+bool Tracker::track_from_gyro(Working& w, Map& map, TrackingResult& result) {
+  const std::optional<Eigen::Isometry3d> T_cw = predicted_pose(map, w.frame.t_ns);
+  if (!T_cw || !last_frame_) return false;
+  const Stopwatch watch;
+  Frame& f = w.frame;
+  std::vector<KeyframeId> local = local_keyframes(observing_keyframes(*last_frame_, map), map,
+                                                  config_.local_neighbours_per_keyframe, config_.max_local_keyframes);
+  if (local.empty()) {
+    if (const auto live = map.live_keyframe(reference_keyframe_)) local.push_back(live->first);
+  }
+  ProjectionSearchConfig wide = config_.local_map;
+  wide.radius_factor *= config_.gyro.recovery_radius_factor;
+  std::vector<ProjectedPoint> projected;
+  std::set<MapPointId> considered;
+  for (KeyframeId kf_id : local) {
+    for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
+      if (id == kNoMapPoint || !considered.insert(id).second) continue;
+      const MapPoint* p = map.point(id);
+      if (p == nullptr) continue;
+      if (auto visible = project_map_point(*p, f, *T_cw, wide)) projected.push_back(*visible);
+    }
+  }
+  const int found = search_by_projection(f, projected, map, wide);
+  result.timings.local_map_ms += watch.elapsed_ms();
+  result.frame_matches = found;
+  result.stage = "gyro_prediction";
+  if (found < config_.min_frame_matches) {
+    result.reason = std::to_string(found) + " matches from the gyro-predicted pose";
+    return false;
+  }
+  const int inliers = optimize(w, map, *T_cw, result);
+  w.drop_outliers();
+  logger_->debug("t={} gyro prediction: {} keyframes, {} visible points, {} matches, {} inliers",
+                 core::format_seconds(f.t_ns, 6), local.size(), projected.size(), found, inliers);
+  if (inliers < config_.min_frame_inliers) {
+    result.reason = std::to_string(inliers) + " inliers from the gyro-predicted pose";
+    return false;
+  }
+  return true;
+}
+
 void Tracker::decide_keyframe(Working& w, const Map& map, const TrackingInputs& inputs, TrackingResult& result) {
   const Frame& f = w.frame;
   const auto live = map.live_keyframe(reference_keyframe_);

@@ -16,6 +16,10 @@
 // optimisation, a guided search of the candidate's neighbourhood points by projection, optimisation again;
 // then the local map stage as for any frame. A pose the camera could not have reached from its last
 // estimate in the time lost is refused (RelocalizationConfig::check_jump) and the next candidate tried.
+// With a gyroscope (TrackingInputs::gyro_R_prev_cur) the predicted rotation is the gyro's, less a bias the
+// tracker estimates from tracked frame pairs; the translation stays the constant-velocity one. While lost,
+// each frame (for gyro.recovery_s) first tries the last local map seen from the gyro-predicted pose, before
+// the reference keyframe or relocalisation, and a new map component starts at that predicted pose.
 // The keyframe decision is the policy's (keyframe_policy.hpp), fed with the frame's real quantities.
 // The tracker reads and updates the map (tracking counters) but inserts nothing: the agent hands the
 // frame to local mapping when the result asks for a keyframe.
@@ -31,6 +35,7 @@
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/slam/frame.hpp"
+#include "fleetslam/slam/gyro.hpp"
 #include "fleetslam/slam/keyframe_database.hpp"
 #include "fleetslam/slam/keyframe_policy.hpp"
 #include "fleetslam/slam/map.hpp"
@@ -103,6 +108,7 @@ struct TrackingConfig {
   // ORB-SLAM's temporary visual-odometry points: the last frame's close depth features without a map
   // point also guide the frame-to-frame stage and pose optimisation (they never enter the map).
   bool last_frame_depth_points = true;
+  GyroConfig gyro;
   RelocalizationConfig relocalization;  // the agent visits it as its own section
 
   // Window 10 px at level 0 (ORB-SLAM: 7 px for RGB-D / stereo) and cross-validation off by default
@@ -123,6 +129,7 @@ struct TrackingConfig {
     v("local_neighbours_per_keyframe", local_neighbours_per_keyframe, core::Limits<int>{0, 1000});
     v("max_local_keyframes", max_local_keyframes, core::Limits<int>{1, 10000});
     v("last_frame_depth_points", last_frame_depth_points);
+    v("gyro", gyro);
   }
 };
 
@@ -140,6 +147,9 @@ struct TrackingInputs {
   // Localisation only: tracking and relocalisation against the map as it is; no map is ever started
   // (a tracker without one stays not initialised, a lost one keeps relocalising) and no keyframe asked for.
   bool localization_only = false;
+  // Rotation of the camera since the previous frame handed to track() (R_prev_cur, camera frame), from the
+  // gyroscope with its bias left in; nullopt without one.
+  std::optional<Eigen::Matrix3d> gyro_R_prev_cur;
 };
 
 struct TrackingTimings {
@@ -151,7 +161,7 @@ struct TrackingTimings {
 struct TrackingResult {
   TrackingState state = TrackingState::kNotInitialized;
   bool initialized = false;  // this frame starts a map component (it becomes its first keyframe)
-  std::string stage;         // "init", "motion_model", "reference_keyframe", "relocalization", or empty when not tracked
+  std::string stage;         // "init", "motion_model", "reference_keyframe", "gyro_prediction", "relocalization", or empty when not tracked
   bool relocalized = false;  // this frame found the map again by relocalisation
   double lost_s = 0.0;       // when recovered: time since the first lost frame
   std::string reason;        // why the frame is not tracked (empty when tracked)
@@ -181,6 +191,8 @@ class Tracker {
 
   TrackingState state() const { return state_; }
   int component() const { return component_; }
+  // The gyroscope bias estimated so far (camera frame, rad/s; zero without a gyroscope).
+  const Eigen::Vector3d& gyro_bias_radps() const { return gyro_bias_cam_; }
 
  private:
   struct Working;  // per-frame scratch (temporary points, counters)
@@ -193,6 +205,11 @@ class Tracker {
   int match_reference(Working& w, const Keyframe& ref, const Map& map, const Eigen::Isometry3d& T_cw,
                       const MatcherConfig& matcher, TrackingResult& result);
   bool track_local_map(Working& w, Map& map, TrackingResult& result);
+  bool track_from_gyro(Working& w, Map& map, TrackingResult& result);
+  void accumulate_gyro(core::TimeNs t_ns, const TrackingInputs& inputs);
+  bool gyro_prediction_valid() const;
+  // While lost with the gyro: the last estimate follows its prediction (a new component starts there).
+  void dead_reckon(const Map& map, core::TimeNs t_ns);
   bool relocalize(Working& w, Map& map, const TrackingInputs& inputs, TrackingResult& result);
   int relocalize_with(Working& w, const Keyframe& candidate, const FeatureVector& words, Map& map,
                       TrackingResult& result);
@@ -223,6 +240,13 @@ class Tracker {
   // Constant-velocity model: T_cur_last of the last two tracked frames and their time difference.
   std::optional<Eigen::Isometry3d> velocity_;
   core::TimeNs velocity_dt_ns_ = 0;
+  // Gyroscope: the rotation since the last tracked frame, bias removed (R_last_cur, camera frame), while
+  // every frame since brought one; the steps it holds; the current frame's raw step; the bias estimate.
+  std::optional<Eigen::Matrix3d> gyro_R_last_cur_;
+  int gyro_steps_ = 0;
+  std::optional<Eigen::Matrix3d> gyro_raw_step_;
+  std::optional<core::TimeNs> previous_input_t_ns_;
+  Eigen::Vector3d gyro_bias_cam_ = Eigen::Vector3d::Zero();
   KeyframeId reference_keyframe_ = -1;
   core::TimeNs last_keyframe_t_ns_ = 0;
   int frames_since_keyframe_ = 0;
