@@ -235,14 +235,24 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
       }
     }
     if (!placed_any && !pending.empty()) {  // nobody overlaps: the first waiting robot keeps its prior
-      RobotMergeReport& report = result.robots[pending.front()];
+      const auto first = std::find_if(pending.begin(), pending.end(),
+                                      [&](std::size_t i) { return robots[i].keep_prior_without_overlap; });
+      if (first == pending.end()) break;  // the rest are left out (below)
+      RobotMergeReport& report = result.robots[*first];
       report.status = report.overlap_points == 0
                           ? "no overlap: prior kept"
                           : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): prior kept";
       logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
-      place(pending.front(), report.status);
-      pending.erase(pending.begin());
+      place(*first, report.status);
+      pending.erase(first);
     }
+  }
+  for (std::size_t i : pending) {
+    RobotMergeReport& report = result.robots[i];
+    report.status = report.overlap_points == 0
+                        ? "no overlap: left out"
+                        : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): left out";
+    logger_->info("merge: robot {}: {}", report.robot_id, report.status);
   }
   finish(std::move(merged.cloud), result);
   result.timings.total_ms = ms_since(start);

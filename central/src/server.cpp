@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <unordered_set>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
@@ -60,6 +62,16 @@ class OccupancyHash {
   double inv_;
   std::unordered_set<std::int64_t> cells_;
 };
+
+nlohmann::json later_components_json(const std::vector<ComponentPlacement>& components) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const ComponentPlacement& p : components) {
+    out.push_back({{"component", p.component}, {"merge_id", p.merge_id}, {"points", p.points}, {"placed", p.placed},
+                   {"registered", p.registered}, {"merge_status", p.merge_status},
+                   {"T_world_component", pose_json(p.T_world_component)}});
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -146,16 +158,14 @@ const RobotCounters& Server::counters(int robot_id) const { return state(robot_i
 
 void Server::take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf) {
   if (robot.component < 0) robot.component = kf.component;
-  if (kf.component != robot.component) {
-    if (robot.keyframes.count(kf.id) == 0) ++robot.counters.other_component_keyframes;
-    return;
-  }
   if (!finite_pose(kf.T_world_cam)) {
     logger_->warn("{}: keyframe {} has a non-finite pose; ignored", robot.spec.name, kf.id);
     return;
   }
+  if (kf.component != robot.component && robot.keyframes.count(kf.id) == 0) ++robot.counters.other_component_keyframes;
   ServerKeyframe& entry = robot.keyframes[kf.id];
   entry.t_ns = kf.t_ns;
+  entry.component = kf.component;
   entry.T_robot_cam = kf.T_world_cam;
   if (kf.dense_cam) {
     entry.dense_cam = *kf.dense_cam;
@@ -165,7 +175,8 @@ void Server::take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf) 
       logger_->warn("{}: keyframe {}: {} dense points with NaN dropped", robot.spec.name, kf.id, dropped);
     }
   }
-  robot.newest = std::max(robot.newest, kf.id);
+  slam::KeyframeId& newest = robot.newest.emplace(kf.component, kf.id).first->second;
+  newest = std::max(newest, kf.id);
 }
 
 IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
@@ -197,10 +208,11 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
     robot.retired[id] = kf->second.T_robot_cam;
     robot.keyframes.erase(kf);
   }
-  if (u.T_world_cam && u.component == robot.component && robot.newest >= 0) {
-    const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, robot.newest);
+  const auto newest = robot.newest.find(u.component);
+  if (u.T_world_cam && newest != robot.newest.end()) {
+    const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, newest->second);
     if (T_robot_ref) {
-      robot.frames.push_back(FrameEntry{u.t_ns, robot.newest, T_robot_ref->inverse() * *u.T_world_cam});
+      robot.frames.push_back(FrameEntry{u.t_ns, u.component, newest->second, T_robot_ref->inverse() * *u.T_world_cam});
       ++robot.counters.tracked;
     }
   }
@@ -219,31 +231,38 @@ std::optional<Eigen::Isometry3d> Server::keyframe_pose(const RobotState& robot, 
   return std::nullopt;
 }
 
-core::PointCloud Server::robot_cloud(int robot_id) const {
+core::PointCloud Server::robot_cloud(int robot_id, std::optional<int> component) const {
   const RobotState& robot = state(robot_id);
+  const auto wanted = [&](const ServerKeyframe& kf) { return !component || kf.component == *component; };
   core::PointCloud cloud;
   std::size_t total = 0;
-  for (const auto& entry : robot.keyframes) total += entry.second.dense_cam.size();
+  for (const auto& entry : robot.keyframes) total += wanted(entry.second) ? entry.second.dense_cam.size() : 0;
   cloud.reserve(total);
-  for (const auto& entry : robot.keyframes) cloud.append(core::transformed(entry.second.dense_cam, entry.second.T_robot_cam));
+  for (const auto& entry : robot.keyframes) {
+    if (wanted(entry.second)) cloud.append(core::transformed(entry.second.dense_cam, entry.second.T_robot_cam));
+  }
   return cloud;
 }
 
-core::Trajectory Server::robot_trajectory(int robot_id) const {
+core::Trajectory Server::robot_trajectory(int robot_id, std::optional<int> component) const {
   const RobotState& robot = state(robot_id);
   core::Trajectory out;
   out.reserve(robot.frames.size());
   for (const FrameEntry& f : robot.frames) {
+    if (component && f.component != *component) continue;
     const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, f.reference);
     if (T_robot_ref) out.push_back(core::StampedPose{f.t_ns, *T_robot_ref * f.T_ref_cam});
   }
   return out;
 }
 
-core::Trajectory Server::robot_keyframes(int robot_id) const {
+core::Trajectory Server::robot_keyframes(int robot_id, std::optional<int> component) const {
   const RobotState& robot = state(robot_id);
   core::Trajectory out;
-  for (const auto& entry : robot.keyframes) out.push_back(core::StampedPose{entry.second.t_ns, entry.second.T_robot_cam});
+  for (const auto& entry : robot.keyframes) {
+    if (component && entry.second.component != *component) continue;
+    out.push_back(core::StampedPose{entry.second.t_ns, entry.second.T_robot_cam});
+  }
   std::sort(out.begin(), out.end(), [](const core::StampedPose& a, const core::StampedPose& b) { return a.t_ns < b.t_ns; });
   return out;
 }
@@ -269,15 +288,83 @@ core::Trajectory Server::world_trajectory(int robot_id) const {
   return out;
 }
 
+Eigen::Isometry3d RobotFusionReport::T_world(int c) const {
+  for (const ComponentPlacement& p : later_components) {
+    if (p.component == c) return p.T_world_component;
+  }
+  return T_world_robot;
+}
+
+Eigen::Isometry3d Server::T_world_component(int robot_id, int component) const {
+  const RobotState& robot = state(robot_id);
+  if (last_merge_) {
+    for (const RobotFusionReport& r : last_merge_->robots) {
+      if (r.robot_id == robot_id) return r.T_world(component);
+    }
+  }
+  return robot.spec.T_world_robot;
+}
+
+core::PointCloud Server::world_cloud(int robot_id) const {
+  const RobotState& robot = state(robot_id);
+  const RobotFusionReport* fused = nullptr;
+  if (last_merge_) {
+    for (const RobotFusionReport& r : last_merge_->robots) fused = r.robot_id == robot_id ? &r : fused;
+  }
+  std::set<int> components;
+  for (const auto& entry : robot.keyframes) components.insert(entry.second.component);
+  core::PointCloud cloud;
+  for (int c : components) {
+    Eigen::Isometry3d T = robot.spec.T_world_robot;
+    if (c != robot.component) {
+      const ComponentPlacement* placement = nullptr;
+      if (fused != nullptr) {
+        for (const ComponentPlacement& p : fused->later_components) placement = p.component == c ? &p : placement;
+      }
+      if (placement == nullptr || !placement->placed) continue;
+      T = placement->T_world_component;
+    } else if (fused != nullptr) {
+      T = fused->T_world_robot;
+    }
+    cloud.append(core::transformed(robot_cloud(robot_id, c), T));
+  }
+  return cloud;
+}
+
 const ServerMergeReport& Server::merge() {
   ServerMergeReport report;
   std::vector<RobotCloud> inputs;
   for (const auto& [id, robot] : robots_) {
     RobotCloud input;
     input.robot_id = id;
-    input.cloud_robot = robot_cloud(id);
+    input.cloud_robot = robot_cloud(id, robot.component);
     input.T_world_robot_prior = robot.spec.T_world_robot;
     inputs.push_back(std::move(input));
+  }
+  // Later components after every robot's first one, with merge ids after the robots' ids. Their prior:
+  // the robot's transform as the last merge refined it (the agent keeps one frame across components).
+  struct LaterUnit {
+    int robot_id;
+    int component;
+    int merge_id;
+  };
+  std::vector<LaterUnit> later;
+  int next_id = robots_.empty() ? 0 : robots_.rbegin()->first + 1;
+  for (const auto& [id, robot] : robots_) {
+    std::set<int> components;
+    for (const auto& entry : robot.keyframes) {
+      if (entry.second.component != robot.component) components.insert(entry.second.component);
+    }
+    for (int c : components) {
+      RobotCloud input;
+      input.robot_id = next_id;
+      input.cloud_robot = robot_cloud(id, c);
+      input.T_world_robot_prior = T_world_component(id, robot.component);
+      input.keep_prior_without_overlap = false;
+      logger_->info("merge: robot {} is {}'s map component {}", next_id, robot.spec.name, c);
+      later.push_back({id, c, next_id++});
+      inputs.push_back(std::move(input));
+    }
   }
   report.merge = merger_.merge(inputs);
 
@@ -285,12 +372,26 @@ const ServerMergeReport& Server::merge() {
     RobotFusionReport r;
     r.robot_id = id;
     r.name = robot.spec.name;
+    r.component = robot.component;
     const central::RobotMergeReport* info = merged_robot(report.merge, id);
     r.T_world_robot = info != nullptr ? info->T_world_robot : robot.spec.T_world_robot;
     r.registered = info != nullptr && info->fine_matched;
     r.overlap_points = info != nullptr ? info->overlap_points : 0;
     r.merge_status = info != nullptr ? info->status : "not merged";
-    const core::Trajectory keyframes = robot_keyframes(id);
+    for (const LaterUnit& unit : later) {
+      if (unit.robot_id != id) continue;
+      ComponentPlacement p;
+      p.component = unit.component;
+      p.merge_id = unit.merge_id;
+      const central::RobotMergeReport* part = merged_robot(report.merge, unit.merge_id);
+      p.points = part != nullptr ? part->points : 0;
+      p.placed = part != nullptr && part->placed;
+      p.registered = part != nullptr && part->fine_matched;
+      p.merge_status = part != nullptr ? part->status : "not merged";
+      p.T_world_component = p.placed ? part->T_world_robot : r.T_world_robot;
+      r.later_components.push_back(p);
+    }
+    const core::Trajectory keyframes = robot_keyframes(id, robot.component);
     std::optional<InterRobotConstraint> constraint;
     if (r.registered) {
       // Anchors: keyframes whose points (placed by the refined transform) lie on the rest of the map.
@@ -299,11 +400,13 @@ const ServerMergeReport& Server::merge() {
         if (other_id == id) continue;
         const central::RobotMergeReport* other_info = merged_robot(report.merge, other_id);
         const Eigen::Isometry3d T = other_info != nullptr ? other_info->T_world_robot : other.spec.T_world_robot;
-        others.append(core::transformed(robot_cloud(other_id), T));
+        others.append(core::transformed(robot_cloud(other_id, other.component), T));
       }
       const OccupancyHash near_others(others, config_.anchor_radius_m);
       std::vector<const ServerKeyframe*> ordered;
-      for (const auto& entry : robot.keyframes) ordered.push_back(&entry.second);
+      for (const auto& entry : robot.keyframes) {
+        if (entry.second.component == robot.component) ordered.push_back(&entry.second);
+      }
       std::sort(ordered.begin(), ordered.end(), [](const ServerKeyframe* a, const ServerKeyframe* b) { return a->t_ns < b->t_ns; });
       for (std::size_t k = 0; k < ordered.size(); ++k) {
         const core::PointCloud& cloud = ordered[k]->dense_cam;
@@ -319,10 +422,27 @@ const ServerMergeReport& Server::merge() {
       }
       constraint = InterRobotConstraint{r.T_world_robot, r.anchors};
     }
-    r.fused = fusion_.fuse(keyframes, robot_trajectory(id), robot.spec.T_world_robot, constraint);
+    r.fused = fusion_.fuse(keyframes, robot_trajectory(id, robot.component), robot.spec.T_world_robot, constraint);
+    // Later components: placed rigidly by their own transform (or the robot's while not placed).
+    for (const ComponentPlacement& p : r.later_components) {
+      for (const core::StampedPose& kf : robot_keyframes(id, p.component)) {
+        r.fused.keyframes_world.push_back({kf.t_ns, p.T_world_component * kf.T_world_body});
+      }
+      for (const core::StampedPose& f : robot_trajectory(id, p.component)) {
+        r.fused.frames_world.push_back({f.t_ns, p.T_world_component * f.T_world_body});
+      }
+    }
+    const auto by_time = [](const core::StampedPose& a, const core::StampedPose& b) { return a.t_ns < b.t_ns; };
+    std::stable_sort(r.fused.keyframes_world.begin(), r.fused.keyframes_world.end(), by_time);
+    std::stable_sort(r.fused.frames_world.begin(), r.fused.frames_world.end(), by_time);
     r.points = robot_cloud(id).size();
-    logger_->info("{}: {} dense points, {} in the overlap, {} anchor keyframes{}", r.name, r.points, r.overlap_points,
-                  r.anchors.size(), r.registered ? "" : " (coarse placement by the prior)");
+    std::size_t placed_later = 0;
+    for (const ComponentPlacement& p : r.later_components) placed_later += p.placed ? 1 : 0;
+    logger_->info("{}: {} dense points, {} in the overlap, {} anchor keyframes{}{}", r.name, r.points, r.overlap_points,
+                  r.anchors.size(), r.registered ? "" : " (coarse placement by the prior)",
+                  r.later_components.empty() ? std::string()
+                                             : fmt::format("; later map components: {} of {} placed", placed_later,
+                                                           r.later_components.size()));
     report.robots.push_back(std::move(r));
   }
   last_merge_ = std::move(report);
@@ -340,7 +460,7 @@ void Server::write_outputs(const std::filesystem::path& dir) {
   nlohmann::json robots = nlohmann::json::array();
   for (const RobotFusionReport& r : report.robots) {
     const fs::path robot_dir = dir / r.name;
-    core::write_ply((robot_dir / "map.ply").string(), core::transformed(robot_cloud(r.robot_id), r.T_world_robot));
+    core::write_ply((robot_dir / "map.ply").string(), world_cloud(r.robot_id));
     core::write_trajectory(robot_dir / "trajectory.txt", r.fused.frames_world, core::TrajectoryFormat::kTum);
     core::write_trajectory(robot_dir / "trajectory_robot.txt", robot_trajectory(r.robot_id), core::TrajectoryFormat::kTum);
     const RobotCounters& c = counters(r.robot_id);
@@ -349,7 +469,8 @@ void Server::write_outputs(const std::filesystem::path& dir) {
                       {"anchor_keyframes", r.anchors.size()}, {"prior_T_world_robot", pose_json(spec(r.robot_id).T_world_robot)},
                       {"T_world_robot", pose_json(r.T_world_robot)}, {"pose_graph_solved", r.fused.pose_graph_solved},
                       {"updates", c.updates}, {"rejected_updates", c.rejected}, {"tracked", c.tracked}, {"lost", c.lost},
-                      {"other_component_keyframes", c.other_component_keyframes}, {"nan_points", c.nan_points}});
+                      {"other_component_keyframes", c.other_component_keyframes}, {"nan_points", c.nan_points},
+                      {"component", r.component}, {"later_components", later_components_json(r.later_components)}});
   }
   const nlohmann::json merge_json = to_json(report.merge);
   const nlohmann::json out = {{"robots", robots}, {"merge", merge_json}};

@@ -257,6 +257,33 @@ TEST(MapMerger, EmptyNaNAndNeverOverlappingRobotsLeaveTheOthersUnaffected) {
   EXPECT_GT(core::bounds(result.cloud_world).max.x(), 100.0f);
 }
 
+// A cloud whose prior is only a guess (a robot's later map component) joins by overlap or not at all;
+// the same cloud that does overlap is matched as usual.
+TEST(MapMerger, ACloudThatMustOverlapIsLeftOutWithoutOverlap) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity)};
+  RobotCloud elsewhere;
+  elsewhere.robot_id = 8;
+  elsewhere.cloud_robot = synthetic::room_cloud(5000, 0.0f, 6.0f, 0.003f, 8);
+  elsewhere.T_world_robot_prior = synthetic::pose(0, 0, 0, Eigen::Vector3d(100, 0, 0));
+  elsewhere.keep_prior_without_overlap = false;
+  robots.push_back(elsewhere);
+  RobotCloud overlapping = robot(9, 2.0f, 6.0f, kPoseB, synthetic::prior_error());
+  overlapping.keep_prior_without_overlap = false;
+  robots.push_back(overlapping);
+
+  const MergeResult result = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(result.robots.size(), 3u);
+  const RobotMergeReport& far = result.robots[1];
+  EXPECT_FALSE(far.placed);
+  EXPECT_EQ(far.status, "no overlap: left out");
+  EXPECT_TRUE(far.T_world_robot.isApprox(far.T_world_robot_prior));
+  EXPECT_TRUE(result.robots[2].placed);
+  EXPECT_TRUE(result.robots[2].fine_matched) << result.robots[2].status;
+  EXPECT_EQ(result.points_before_sampling, result.robots[0].points + result.robots[2].points);
+  EXPECT_LT(core::bounds(result.cloud_world).max.x(), 50.0f);
+}
+
 TEST(MapMerger, CoarseOnlyAndNothingToMerge) {
   MapMergerConfig config;
   config.registration.enabled = false;

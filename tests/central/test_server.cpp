@@ -166,7 +166,7 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
   Eigen::Isometry3d nan_pose = Eigen::Isometry3d::Identity();
   nan_pose.translation().x() = NAN;
   EXPECT_EQ(server.integrate(update(0, 4, 2'000, nan_pose)), IntegrateStatus::kInvalid);
-  // A keyframe of a restarted map (component 1) cannot be placed by the prior.
+  // A keyframe of a restarted map (component 1): kept as a submap of its own.
   slam::AgentUpdate restarted = update(0, 5, 3'000, Eigen::Isometry3d::Identity());
   restarted.component = 1;
   restarted.new_keyframes.push_back(keyframe(9, 3'000, s.T_world_a, s.T_world_a, s.room, 0.0, 1.0));
@@ -178,10 +178,13 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
   EXPECT_EQ(c.rejected, 3u);
   EXPECT_EQ(c.nan_points, 1u);
   EXPECT_EQ(c.other_component_keyframes, 1u);
-  EXPECT_EQ(server.robot_keyframes(0).size(), 1u);
+  EXPECT_EQ(server.robot_keyframes(0).size(), 2u);
+  EXPECT_EQ(server.robot_keyframes(0, 0).size(), 1u);
+  EXPECT_EQ(server.robot_keyframes(0, 1).size(), 1u);
   const core::PointCloud cloud = server.robot_cloud(0);
   for (const Eigen::Vector3f& p : cloud.points) EXPECT_TRUE(p.allFinite());
-  EXPECT_EQ(server.robot_trajectory(0).size(), 1u) << "the restarted map's frame is not placed";
+  EXPECT_EQ(server.robot_trajectory(0).size(), 2u);
+  EXPECT_EQ(server.robot_trajectory(0, 1).size(), 1u);
   EXPECT_THROW(server.robot_cloud(42), InputError);
 }
 
@@ -225,6 +228,70 @@ TEST(Server, RobotThatNeverOverlapsKeepsItsPrior) {
   EXPECT_EQ(r.overlap_points, 0u);
   EXPECT_TRUE(r.T_world_robot.isApprox(far));
   EXPECT_TRUE(r.anchors.empty());
+}
+
+// Robot A loses track after its second keyframe; its agent starts component 1 at a dead-reckoned pose
+// 12 cm and 4 degrees off. Component 1 overlaps component 0 (x in [1.6, 4]): registration places it, and
+// its frames follow. A component 2 far from everything (its dead reckoning gone wrong) stays out of the
+// merged map while its frames follow the robot's transform.
+TEST(Server, LaterMapComponentsAreRegisteredAsSubmaps) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a});
+  Eigen::Isometry3d drift = pose({0.08, -0.09, 0.0}, 4.0 * M_PI / 180.0);  // agent frame of component 1 -> true agent frame
+  drift = drift.inverse();
+  const Eigen::Isometry3d far = pose({40.0, 0.0, 0.0}, 0.0);
+  std::int64_t sequence = 0;
+  for (int k = 0; k < 6; ++k) {
+    const int component = k < 2 ? 0 : k < 5 ? 1 : 2;
+    const core::TimeNs t = (k + 1) * 1'000'000'000LL;
+    const Eigen::Isometry3d T_world_cam = pose({0.5 + 0.6 * k, 0.5, 1.0}, 0.0);
+    // What the agent believes: the true pose in its frame, moved by the component's dead-reckoning error.
+    const Eigen::Isometry3d T_agent_world = component == 0 ? s.T_world_a.inverse()
+                                            : component == 1 ? drift * s.T_world_a.inverse()
+                                                             : far * s.T_world_a.inverse();
+    slam::AgentUpdate u = update(0, sequence++, t, T_agent_world * T_world_cam);
+    u.component = component;
+    slam::KeyframeSnapshot kf = keyframe(k, t, s.T_world_a, T_world_cam, s.room, 0.6 * k, 0.6 * k + 1.6);
+    kf.T_world_cam = T_agent_world * T_world_cam;
+    kf.component = component;
+    u.new_keyframes.push_back(kf);
+    EXPECT_EQ(server.integrate(u), IntegrateStatus::kAccepted);
+  }
+  const ServerMergeReport& report = server.merge();
+  ASSERT_EQ(report.robots.size(), 1u);
+  const RobotFusionReport& a = report.robots[0];
+  EXPECT_EQ(a.component, 0);
+  ASSERT_EQ(a.later_components.size(), 2u);
+  const ComponentPlacement& c1 = a.later_components[0];
+  const ComponentPlacement& c2 = a.later_components[1];
+  EXPECT_EQ(c1.component, 1);
+  EXPECT_TRUE(c1.placed) << c1.merge_status;
+  EXPECT_TRUE(c1.registered) << c1.merge_status;
+  const Eigen::Isometry3d truth_c1 = s.T_world_a * drift.inverse();  // component 1's frame in the world
+  const double t_err = (c1.T_world_component.translation() - truth_c1.translation()).norm();
+  std::printf("component 1: placed to %.4f m / %.3f deg of the truth (dead reckoning off by 0.12 m / 4 deg)\n", t_err,
+              rotation_deg(c1.T_world_component, truth_c1));
+  EXPECT_LT(t_err, 0.01);
+  EXPECT_LT(rotation_deg(c1.T_world_component, truth_c1), 0.5);
+  EXPECT_FALSE(c2.placed);
+  EXPECT_NE(c2.merge_status.find("left out"), std::string::npos) << c2.merge_status;
+  EXPECT_TRUE(c2.T_world_component.isApprox(a.T_world_robot));
+  // Every frame is in the world trajectory, in time order; component 1's where they truly were.
+  const core::Trajectory world = server.world_trajectory(0);
+  ASSERT_EQ(world.size(), 6u);
+  for (int k = 0; k < 5; ++k) {
+    const Eigen::Isometry3d truth = pose({0.5 + 0.6 * k, 0.5, 1.0}, 0.0);
+    EXPECT_LT((world[static_cast<std::size_t>(k)].T_world_body.translation() - truth.translation()).norm(), 0.015) << k;
+  }
+  // The merged map holds components 0 and 1, not component 2 (nothing near x = 40 m).
+  std::size_t far_points = 0;
+  for (const Eigen::Vector3f& p : report.merge.cloud_world.points) far_points += p.x() > 20.0f ? 1 : 0;
+  EXPECT_EQ(far_points, 0u);
+  EXPECT_EQ(server.world_cloud(0).size(), server.robot_cloud(0, 0).size() + server.robot_cloud(0, 1).size());
+  // The runner places a component's keyframes and live pose with T_world_component.
+  EXPECT_TRUE(server.T_world_component(0, 1).isApprox(c1.T_world_component));
+  EXPECT_TRUE(server.T_world_component(0, 0).isApprox(a.T_world_robot));
 }
 
 TEST(Server, WritesItsOutputs) {

@@ -145,6 +145,7 @@ struct RobotRun {
   std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, keyframes = 0;
   bool tracking = false;
   std::optional<Eigen::Isometry3d> T_map_cam;  // the agent's latest camera pose in its own map
+  int map_component = 0;                       // ... and the map component it belongs to
   std::string tracking_state = "waiting";
   nlohmann::json loops = nlohmann::json::array();
   nlohmann::json keyframe_decisions = nlohmann::json::array();  // [t_s, score, inserted]
@@ -224,15 +225,6 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   double next_progress_s = 0.0;
   const double duration_s = core::ns_to_seconds(world.end_ns());
 
-  // The robot's frame in the world as the central unit has it now (the last merge, else the prior).
-  const auto server_T_world_robot = [&](int id) -> Eigen::Isometry3d {
-    if (server.last_merge()) {
-      for (const central::RobotFusionReport& fused : server.last_merge()->robots) {
-        if (fused.robot_id == id) return fused.T_world_robot;
-      }
-    }
-    return robots[static_cast<std::size_t>(id)].T_world_robot_prior;
-  };
   const auto mission_update = [&](double t_s) {
     const auto t0 = std::chrono::steady_clock::now();
     const central::ServerMergeReport& merged = server.merge();
@@ -263,9 +255,8 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     std::vector<planners::SensorView> views;
     for (std::size_t r = 0; r < robots.size() && config_.planner.grid.carve_rays; ++r) {
       if (!robots[r].T_world_robot_true) continue;
-      const Eigen::Isometry3d T_world_robot = server_T_world_robot(static_cast<int>(r));
       for (const central::ServerKeyframe& kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
-        const Eigen::Isometry3d T_world_cam = T_world_robot * kf.T_robot_cam;
+        const Eigen::Isometry3d T_world_cam = server.T_world_component(static_cast<int>(r), kf.component) * kf.T_robot_cam;
         views.push_back({T_world_cam.translation().cast<float>(), core::transformed(kf.dense_cam, T_world_cam).points});
       }
     }
@@ -289,7 +280,10 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       if (frame.T_world_cam_gt) robot.groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
       const double t_s = core::ns_to_seconds(frame.t_ns);
       slam::AgentUpdate update = robot.agent->process(frame);
-      if (update.T_world_cam) robot.T_map_cam = *update.T_world_cam;
+      if (update.T_world_cam) {
+        robot.T_map_cam = *update.T_world_cam;
+        robot.map_component = update.component;
+      }
       ++robot.frames;
       robot.tracking = update.has_pose();
       robot.tracked += update.has_pose() ? 1 : 0;
@@ -330,7 +324,9 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       early = early || (world.path_done(r) && mission.wants_plan(r));
       const std::optional<Eigen::Vector2d> goal = mission.goal_of(r);
       if (goal && robots[r].T_map_cam) {
-        const Eigen::Isometry3d T_world_cam = server_T_world_robot(static_cast<int>(r)) * *robots[r].T_map_cam;
+        // The robot's map component in the world as the central unit has it now (the last merge, else the prior).
+        const Eigen::Isometry3d T_world_cam =
+            server.T_world_component(static_cast<int>(r), robots[r].map_component) * *robots[r].T_map_cam;
         early = early || (body_pose_2d(T_world_cam, robots[r].T_body_cam).xy() - *goal).norm() <= config_.mission.goal_reached_m;
       }
     }
@@ -422,7 +418,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         entry["prior_error"] = alignment_error_json(robot.T_world_robot_prior, *robot.T_world_robot_true);
         entry["refined_error"] = alignment_error_json(fused.T_world_robot, *robot.T_world_robot_true);
         entry["map_accuracy"] = accuracy_json(
-            central::evaluate_map(core::transformed(server.robot_cloud(id), fused.T_world_robot), truth_surfaces));
+            central::evaluate_map(server.world_cloud(id), truth_surfaces));
       }
     }
     robots_json.push_back(entry);

@@ -8,7 +8,8 @@
 // robot 2 but not robot 0 is still registered, and each registration sees the most data. Robots are tried
 // in input order; one without enough overlap waits while others are placed and is tried again when the
 // merged cloud has grown. When a whole pass places nobody, the first waiting robot keeps its coarse
-// (prior) pose and joins the merged cloud; the others are tried against it in turn.
+// (prior) pose and joins the merged cloud; the others are tried against it in turn (robots marked
+// keep_prior_without_overlap false never join by their prior: they are left out).
 //
 // Bad input is handled per robot and never affects the others: non-finite points are removed and
 // counted, an empty cloud contributes nothing, a prior that is not a finite rigid transform leaves the
@@ -33,10 +34,13 @@
 namespace fleetslam::central {
 
 // One robot's dense map in its own map frame, with the prior that places it in the world.
+// keep_prior_without_overlap false: a cloud that never overlaps enough stays out of the merged map
+// (status "...: left out") instead of joining it by its prior -- for clouds whose prior is only a guess.
 struct RobotCloud {
   int robot_id = 0;
   core::PointCloud cloud_robot;
   Eigen::Isometry3d T_world_robot_prior = Eigen::Isometry3d::Identity();
+  bool keep_prior_without_overlap = true;
 };
 
 struct MapMergerConfig {

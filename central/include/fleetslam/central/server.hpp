@@ -8,13 +8,18 @@
 //                      (coarse), refined by registration where they overlap (fine), merged, uniformly
 //                      sampled and Gaussian-filtered (MapMerger); then each robot's trajectory fused into
 //                      the world frame (TrajectoryFusion), with the keyframes in the overlap as anchors.
+// Later map components: when an agent loses track and starts a new map component, that component is
+// continuous with the robot's frame only as far as its dead reckoning goes (the last pose, or the gyro's
+// prediction). Each later component is a submap: after all robots' first components it is registered
+// against the merged map like a robot whose prior is the robot's transform, and joins the map (its
+// keyframes and frames placed by its own transform) only when it overlaps enough; until then its frames
+// follow the robot's transform and its cloud stays out of the merged map.
 // The server never includes the simulator: simulated and real robots look the same to it.
 //
 // Bad input is logged and counted, never thrown: an update from a robot not registered, one whose
 // sequence does not advance (duplicate or out of order), a pose or cloud with NaN (the NaN points are
-// dropped), keyframes of a later map component (the agent lost track and restarted in an unknown frame:
-// they cannot be placed by the prior and are left out of the map). Robots that never overlap keep the
-// coarse result. Not thread-safe: one thread integrates and merges (agents may send from their own
+// dropped). Robots that never overlap keep the coarse result; later components that never overlap stay
+// out of the merged map. Not thread-safe: one thread integrates and merges (agents may send from their own
 // threads through the Link).
 
 #include <cstddef>
@@ -72,14 +77,26 @@ struct RobotCounters {
   std::size_t rejected = 0;     // out of order / duplicate / invalid
   std::size_t tracked = 0;      // accepted updates with a pose
   std::size_t lost = 0;
-  std::size_t other_component_keyframes = 0;  // keyframes of a later map component, left out
+  std::size_t other_component_keyframes = 0;  // keyframes of later map components (submaps)
   std::size_t nan_points = 0;   // dense points dropped for NaN / inf
 };
 
 struct ServerKeyframe {
   core::TimeNs t_ns = 0;
+  int component = 0;  // the agent's map component
   Eigen::Isometry3d T_robot_cam = Eigen::Isometry3d::Identity();
   core::PointCloud dense_cam;
+};
+
+// A later map component of a robot (see the file comment) after a merge.
+struct ComponentPlacement {
+  int component = 0;
+  int merge_id = 0;                // its id in MergeResult::robots (after the robots' ids)
+  std::size_t points = 0;
+  bool placed = false;             // in the merged map
+  bool registered = false;
+  std::string merge_status;
+  Eigen::Isometry3d T_world_component = Eigen::Isometry3d::Identity();  // placed: its own; else the robot's
 };
 
 struct RobotFusionReport {
@@ -91,7 +108,13 @@ struct RobotFusionReport {
   std::string merge_status;        // the merger's word on it ("reference", "fine matched", "no overlap: prior kept", ...)
   std::vector<std::size_t> anchors;  // keyframes (indices in time order) in the overlap
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (or the prior)
-  FusedTrajectory fused;
+  int component = 0;                        // the first map component, which T_world_robot places
+  std::vector<ComponentPlacement> later_components;
+  FusedTrajectory fused;  // frames_world: the first component fused, later ones placed rigidly, in time order
+
+  // Where the robot's map component `component` lies in the world (the robot's transform for the first
+  // component, and for later ones not placed).
+  Eigen::Isometry3d T_world(int component) const;
 };
 
 struct ServerMergeReport {
@@ -121,12 +144,17 @@ class Server {
   std::vector<int> robot_ids() const;
   const RobotSpec& spec(int robot_id) const;
   const RobotCounters& counters(int robot_id) const;
-  // The robot's dense map in its own frame (each keyframe's cloud moved by its latest pose).
-  core::PointCloud robot_cloud(int robot_id) const;
+  // The robot's dense map in its own frame (each keyframe's cloud moved by its latest pose); with a
+  // component, that component's part only.
+  core::PointCloud robot_cloud(int robot_id, std::optional<int> component = std::nullopt) const;
   // Every accepted tracked frame in the robot's frame, following its keyframes' latest poses.
-  core::Trajectory robot_trajectory(int robot_id) const;
+  core::Trajectory robot_trajectory(int robot_id, std::optional<int> component = std::nullopt) const;
   // Keyframes in time order, robot frame.
-  core::Trajectory robot_keyframes(int robot_id) const;
+  core::Trajectory robot_keyframes(int robot_id, std::optional<int> component = std::nullopt) const;
+  // The robot's dense map in the world: each component by its placement, components left out excluded.
+  core::PointCloud world_cloud(int robot_id) const;
+  // Where the robot's map component lies in the world as the last merge has it (before: the prior).
+  Eigen::Isometry3d T_world_component(int robot_id, int component) const;
   // The same keyframes with their dense clouds (camera frame): where each cloud was seen from, for
   // free-space carving.
   std::vector<ServerKeyframe> robot_keyframe_clouds(int robot_id) const;
@@ -143,6 +171,7 @@ class Server {
  private:
   struct FrameEntry {
     core::TimeNs t_ns = 0;
+    int component = 0;
     slam::KeyframeId reference = -1;
     Eigen::Isometry3d T_ref_cam = Eigen::Isometry3d::Identity();
   };
@@ -153,7 +182,7 @@ class Server {
     int component = -1;  // the map component the prior places (the first one seen)
     std::map<slam::KeyframeId, ServerKeyframe> keyframes;
     std::map<slam::KeyframeId, Eigen::Isometry3d> retired;  // removed keyframes' last poses (frames may refer to them)
-    slam::KeyframeId newest = -1;
+    std::map<int, slam::KeyframeId> newest;  // per component
     std::vector<FrameEntry> frames;
   };
 
