@@ -112,18 +112,27 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
     const RegistrationResult r = registration_.align(select_points(cloud_world, sets.indices_b),
                                                      select_points(merged, sets.indices_a));
     timings.registration_ms += ms_since(stage);
-    const bool usable = (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio;
+    // How far the result would be from the prior.
+    const Eigen::Isometry3d from_prior = r.T_target_source * report.T_world_robot * report.T_world_robot_prior.inverse();
+    const double correction_deg = Eigen::AngleAxisd(from_prior.linear()).angle() * 57.29577951308232;
+    const bool within = from_prior.translation().norm() <= config_.max_correction_m &&
+                        correction_deg <= config_.max_correction_deg;
+    const bool usable =
+        (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio && within;
     logger_->info("merge: robot {}: round {}: GICP {} after {} iterations on {}/{} points (overlap sets {}/{}), "
                   "fitness {:.3g} m^2, inliers {:.2f}, correction {}",
                   report.robot_id, round, r.status, r.iterations, r.source_points, r.target_points,
                   sets.indices_b.size(), sets.indices_a.size(),
                   r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
     if (!usable) {
+      const std::string why = within ? r.status + ", inlier ratio " + std::to_string(r.inlier_ratio)
+                                     : describe(from_prior) + " from the prior, beyond the limits";
       if (round == 1) {
         report.registration = r;
-        report.status = "registration discarded (" + r.status + ", inlier ratio " + std::to_string(r.inlier_ratio) +
-                        "): prior kept";
+        report.status = "registration discarded (" + why + "): prior kept";
         logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+      } else {
+        logger_->warn("merge: robot {}: round {} discarded ({})", report.robot_id, round, why);
       }
       return;
     }

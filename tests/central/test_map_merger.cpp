@@ -284,6 +284,31 @@ TEST(MapMerger, ACloudThatMustOverlapIsLeftOutWithoutOverlap) {
   EXPECT_LT(core::bounds(result.cloud_world).max.x(), 50.0f);
 }
 
+// The same 10 cm / 5 degree prior error as above, with the corrections allowed below it: GICP's answer
+// is refused and the prior kept; with the limits above it (the defaults), accepted.
+TEST(MapMerger, ACorrectionBeyondTheLimitsIsDiscarded) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                          robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
+  for (const double limit_m : {0.03, 0.5}) {
+    MapMergerConfig config;
+    config.max_correction_m = limit_m;
+    const MergeResult result = MapMerger(config).merge(robots);
+    const RobotMergeReport& b = result.robots[1];
+    if (limit_m < 0.1) {
+      EXPECT_FALSE(b.fine_matched);
+      EXPECT_NE(b.status.find("beyond the limits"), std::string::npos) << b.status;
+      EXPECT_TRUE(b.T_world_robot.isApprox(b.T_world_robot_prior));
+    } else {
+      EXPECT_TRUE(b.fine_matched) << b.status;
+      expect_pose_near(b.T_world_robot, kPoseB, 0.01, 0.5);
+    }
+  }
+  MapMergerConfig degrees;
+  degrees.max_correction_deg = 1.0;
+  EXPECT_FALSE(MapMerger(degrees).merge(robots).robots[1].fine_matched);
+}
+
 TEST(MapMerger, CoarseOnlyAndNothingToMerge) {
   MapMergerConfig config;
   config.registration.enabled = false;
