@@ -100,6 +100,10 @@ MapMerger::MapMerger(const Config& config, core::Logger logger)
 void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                            core::PointCloud& cloud_world, MergeTimings& timings) const {
   OverlapRegions sets{coarse.indices_a, coarse.indices_b};
+  // The cloud's centroid where the prior puts it (fine matching starts from the prior).
+  Eigen::Vector3d centroid_prior = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& p : cloud_world.points) centroid_prior += p.cast<double>();
+  if (!cloud_world.empty()) centroid_prior /= static_cast<double>(cloud_world.size());
   for (int round = 1; round <= config_.refinement_rounds; ++round) {
     if (round > 1) {
       const Clock::time_point stage = Clock::now();
@@ -112,10 +116,12 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
     const RegistrationResult r = registration_.align(select_points(cloud_world, sets.indices_b),
                                                      select_points(merged, sets.indices_a));
     timings.registration_ms += ms_since(stage);
-    // How far the result would be from the prior.
+    // How far the result would move the cloud from where its prior put it: its centroid, and the rotation.
     const Eigen::Isometry3d from_prior = r.T_target_source * report.T_world_robot * report.T_world_robot_prior.inverse();
+    const Eigen::Isometry3d moved(Eigen::Translation3d(from_prior * centroid_prior - centroid_prior) *
+                                  Eigen::Isometry3d(from_prior.linear()));
     const double correction_deg = Eigen::AngleAxisd(from_prior.linear()).angle() * 57.29577951308232;
-    const bool within = from_prior.translation().norm() <= config_.max_correction_m &&
+    const bool within = moved.translation().norm() <= config_.max_correction_m &&
                         correction_deg <= config_.max_correction_deg;
     const bool usable =
         (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio && within;
@@ -126,7 +132,7 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
                   r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
     if (!usable) {
       const std::string why = within ? r.status + ", inlier ratio " + std::to_string(r.inlier_ratio)
-                                     : describe(from_prior) + " from the prior, beyond the limits";
+                                     : describe(moved) + " from the prior, beyond the limits";
       if (round == 1) {
         report.registration = r;
         report.status = "registration discarded (" + why + "): prior kept";

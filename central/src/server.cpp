@@ -289,10 +289,24 @@ core::Trajectory Server::world_trajectory(int robot_id) const {
 }
 
 Eigen::Isometry3d RobotFusionReport::T_world(int c) const {
+  // A component newer than the merge continues the newest one before it.
+  const ComponentPlacement* best = nullptr;
   for (const ComponentPlacement& p : later_components) {
-    if (p.component == c) return p.T_world_component;
+    if (p.component <= c && (best == nullptr || p.component > best->component)) best = &p;
   }
-  return T_world_robot;
+  return best != nullptr ? best->T_world_component : T_world_robot;
+}
+
+std::optional<Eigen::Isometry3d> Server::last_placement(int robot_id, int component) const {
+  if (!last_merge_) return std::nullopt;
+  for (const RobotFusionReport& r : last_merge_->robots) {
+    if (r.robot_id != robot_id) continue;
+    if (component == r.component) return r.T_world_robot;
+    for (const ComponentPlacement& p : r.later_components) {
+      if (p.component == component) return p.T_world_component;
+    }
+  }
+  return std::nullopt;
 }
 
 Eigen::Isometry3d Server::T_world_component(int robot_id, int component) const {
@@ -342,11 +356,13 @@ const ServerMergeReport& Server::merge() {
     inputs.push_back(std::move(input));
   }
   // Later components after every robot's first one, with merge ids after the robots' ids. Their prior:
-  // the robot's transform as the last merge refined it (the agent keeps one frame across components).
+  // the transform of the component each continues (the one before it) as the last merge had it: the
+  // agent starts a component where it believed the camera to be in the previous one.
   struct LaterUnit {
     int robot_id;
     int component;
     int merge_id;
+    Eigen::Isometry3d prior;
   };
   std::vector<LaterUnit> later;
   int next_id = robots_.empty() ? 0 : robots_.rbegin()->first + 1;
@@ -355,15 +371,18 @@ const ServerMergeReport& Server::merge() {
     for (const auto& entry : robot.keyframes) {
       if (entry.second.component != robot.component) components.insert(entry.second.component);
     }
+    Eigen::Isometry3d previous = T_world_component(id, robot.component);
     for (int c : components) {
       RobotCloud input;
       input.robot_id = next_id;
       input.cloud_robot = robot_cloud(id, c);
-      input.T_world_robot_prior = T_world_component(id, robot.component);
+      input.T_world_robot_prior = previous;
       input.keep_prior_without_overlap = false;
       logger_->info("merge: robot {} is {}'s map component {}", next_id, robot.spec.name, c);
-      later.push_back({id, c, next_id++});
+      later.push_back({id, c, next_id++, input.T_world_robot_prior});
       inputs.push_back(std::move(input));
+      // The next component continues this one: where the last merge put it, else where this one starts.
+      previous = last_placement(id, c).value_or(previous);
     }
   }
   report.merge = merger_.merge(inputs);
@@ -388,7 +407,7 @@ const ServerMergeReport& Server::merge() {
       p.placed = part != nullptr && part->placed;
       p.registered = part != nullptr && part->fine_matched;
       p.merge_status = part != nullptr ? part->status : "not merged";
-      p.T_world_component = p.placed ? part->T_world_robot : r.T_world_robot;
+      p.T_world_component = p.placed ? part->T_world_robot : unit.prior;
       r.later_components.push_back(p);
     }
     const core::Trajectory keyframes = robot_keyframes(id, robot.component);

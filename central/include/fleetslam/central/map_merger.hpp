@@ -55,9 +55,9 @@ struct MapMergerConfig {
   double refine_radius_m = 0.1;
   int min_overlap_points = 100;     // fewer mutual pairs: no fine matching, the robot waits (see above)
   double min_inlier_ratio = 0.5;    // a GICP result with fewer inliers is discarded
-  // A registration that moves the cloud further from its prior than this is discarded (the coarse pairs
-  // lie within coarse.coarse_radius_m, so a correction far beyond it slid along a small overlap: seen as
-  // 0.99 m / 12 deg on 153 pairs between two rooms of the apartment).
+  // A registration that moves the cloud (its centroid; its rotation) further from where its prior put it
+  // than this is discarded (the coarse pairs lie within coarse.coarse_radius_m, so a correction far beyond
+  // it slid along a small overlap: seen as 0.99 m / 12 deg on 153 pairs between two rooms of the apartment).
   double max_correction_m = 0.5;
   double max_correction_deg = 15.0;
   UniformSamplingConfig sampling;

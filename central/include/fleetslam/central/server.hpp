@@ -11,9 +11,9 @@
 // Later map components: when an agent loses track and starts a new map component, that component is
 // continuous with the robot's frame only as far as its dead reckoning goes (the last pose, or the gyro's
 // prediction). Each later component is a submap: after all robots' first components it is registered
-// against the merged map like a robot whose prior is the robot's transform, and joins the map (its
-// keyframes and frames placed by its own transform) only when it overlaps enough; until then its frames
-// follow the robot's transform and its cloud stays out of the merged map.
+// against the merged map like a robot whose prior is the transform of the component it continues (the
+// one before it), and joins the map (its keyframes and frames placed by its own transform) only when it
+// overlaps enough; until then its frames follow that prior and its cloud stays out of the merged map.
 // The server never includes the simulator: simulated and real robots look the same to it.
 //
 // Bad input is logged and counted, never thrown: an update from a robot not registered, one whose
@@ -96,7 +96,7 @@ struct ComponentPlacement {
   bool placed = false;             // in the merged map
   bool registered = false;
   std::string merge_status;
-  Eigen::Isometry3d T_world_component = Eigen::Isometry3d::Identity();  // placed: its own; else the robot's
+  Eigen::Isometry3d T_world_component = Eigen::Isometry3d::Identity();  // placed: its own; else its prior
 };
 
 struct RobotFusionReport {
@@ -112,8 +112,9 @@ struct RobotFusionReport {
   std::vector<ComponentPlacement> later_components;
   FusedTrajectory fused;  // frames_world: the first component fused, later ones placed rigidly, in time order
 
-  // Where the robot's map component `component` lies in the world (the robot's transform for the first
-  // component, and for later ones not placed).
+  // Where the robot's map component `component` lies in the world: the robot's transform for the first
+  // component; a later one's own placement, or its prior while not placed; one newer than the merge
+  // continues the newest component before it.
   Eigen::Isometry3d T_world(int component) const;
 };
 
@@ -190,6 +191,8 @@ class Server {
   const RobotState& state(int robot_id) const;
   void take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf);
   std::optional<Eigen::Isometry3d> keyframe_pose(const RobotState& robot, slam::KeyframeId id) const;
+  // The component's transform in the last merge (nullopt: no merge yet, or the component was not in it).
+  std::optional<Eigen::Isometry3d> last_placement(int robot_id, int component) const;
 
   ServerConfig config_;
   core::Logger logger_;

@@ -27,8 +27,9 @@ struct GyroConfig {
   double max_bias_residual_radps = 0.2;  // a pair further off than this is a tracking glitch: skipped
   // While lost, the gyro-predicted pose is tried against the last local map for this long.
   double recovery_s = 5.0;
-  // While lost, the constant-velocity translation is extrapolated for this long at most (then held).
-  double max_translation_extrapolation_s = 0.5;
+  // While lost, the constant-velocity translation is extrapolated for this long at most (then held): the
+  // velocity of the last frames before a loss is often already off.
+  double max_translation_extrapolation_s = 0.2;
   // Search radius of the first match from a gyro-predicted pose, as a multiple of the local map's.
   double recovery_radius_factor = 2.0;
 
