@@ -292,6 +292,14 @@ TEST(Server, LaterMapComponentsAreRegisteredAsSubmaps) {
   // The runner places a component's keyframes and live pose with T_world_component.
   EXPECT_TRUE(server.T_world_component(0, 1).isApprox(c1.T_world_component));
   EXPECT_TRUE(server.T_world_component(0, 0).isApprox(a.T_world_robot));
+  // Component 2 continues component 1: from the next merge on its prior (and placement while it does not
+  // overlap) is component 1's; a component newer than the merge continues the newest one.
+  const Eigen::Isometry3d T_world_c1 = c1.T_world_component;
+  const ServerMergeReport& again = server.merge();
+  ASSERT_EQ(again.robots[0].later_components.size(), 2u);
+  EXPECT_FALSE(again.robots[0].later_components[1].placed);
+  EXPECT_TRUE(again.robots[0].later_components[1].T_world_component.isApprox(T_world_c1, 1e-6));
+  EXPECT_TRUE(server.T_world_component(0, 7).isApprox(T_world_c1, 1e-6));
 }
 
 TEST(Server, WritesItsOutputs) {
