@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <set>
 #include <string>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
@@ -67,13 +67,13 @@ std::vector<std::pair<int, std::size_t>> pairs_per_robot(const Overlap& overlap,
   return counts;
 }
 
-std::string describe(const Eigen::Isometry3d& T) {
-  const Eigen::AngleAxisd rotation(T.linear());
-  char text[96];
-  constexpr double kDegreesPerRadian = 57.29577951308232;
-  std::snprintf(text, sizeof(text), "%.1f mm, %.3f deg", T.translation().norm() * 1e3, rotation.angle() * kDegreesPerRadian);
-  return text;
-}
+constexpr double kDegreesPerRadian = 57.29577951308232;
+
+double rotation_deg(const Eigen::Isometry3d& T) { return Eigen::AngleAxisd(T.linear()).angle() * kDegreesPerRadian; }
+
+std::string describe(double shift_m, double angle_deg) { return fmt::format("{:.1f} mm, {:.3f} deg", shift_m * 1e3, angle_deg); }
+
+std::string describe(const Eigen::Isometry3d& T) { return describe(T.translation().norm(), rotation_deg(T)); }
 
 }  // namespace
 
@@ -118,11 +118,9 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
     timings.registration_ms += ms_since(stage);
     // How far the result would move the cloud from where its prior put it: its centroid, and the rotation.
     const Eigen::Isometry3d from_prior = r.T_target_source * report.T_world_robot * report.T_world_robot_prior.inverse();
-    const Eigen::Isometry3d moved(Eigen::Translation3d(from_prior * centroid_prior - centroid_prior) *
-                                  Eigen::Isometry3d(from_prior.linear()));
-    const double correction_deg = Eigen::AngleAxisd(from_prior.linear()).angle() * 57.29577951308232;
-    const bool within = moved.translation().norm() <= config_.max_correction_m &&
-                        correction_deg <= config_.max_correction_deg;
+    const double shift_m = (from_prior * centroid_prior - centroid_prior).norm();
+    const double correction_deg = rotation_deg(from_prior);
+    const bool within = shift_m <= config_.max_correction_m && correction_deg <= config_.max_correction_deg;
     const bool usable =
         (r.converged || r.status == "max iterations") && r.inlier_ratio >= config_.min_inlier_ratio && within;
     logger_->info("merge: robot {}: round {}: GICP {} after {} iterations on {}/{} points (overlap sets {}/{}), "
@@ -132,7 +130,7 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
                   r.fitness_m2, r.inlier_ratio, describe(r.T_target_source));
     if (!usable) {
       const std::string why = within ? r.status + ", inlier ratio " + std::to_string(r.inlier_ratio)
-                                     : describe(moved) + " from the prior, beyond the limits";
+                                     : describe(shift_m, correction_deg) + " from the prior, beyond the limits";
       if (round == 1) {
         report.registration = r;
         report.status = "registration discarded (" + why + "): prior kept";
