@@ -276,16 +276,33 @@ std::vector<ServerKeyframe> Server::robot_keyframe_clouds(int robot_id) const {
   return out;
 }
 
-core::Trajectory Server::world_trajectory(int robot_id) const {
-  if (last_merge_) {
-    for (const RobotFusionReport& r : last_merge_->robots) {
-      if (r.robot_id == robot_id) return r.fused.frames_world;
-    }
+const RobotFusionReport* Server::last_report(int robot_id) const {
+  if (!last_merge_) return nullptr;
+  for (const RobotFusionReport& r : last_merge_->robots) {
+    if (r.robot_id == robot_id) return &r;
   }
+  return nullptr;
+}
+
+std::set<int> Server::components(const RobotState& robot) {
+  std::set<int> out;
+  for (const auto& entry : robot.keyframes) out.insert(entry.second.component);
+  return out;
+}
+
+core::Trajectory Server::world_trajectory(int robot_id) const {
+  if (const RobotFusionReport* r = last_report(robot_id)) return r->fused.frames_world;
   core::Trajectory out = robot_trajectory(robot_id);
   const Eigen::Isometry3d& prior = state(robot_id).spec.T_world_robot;
   for (core::StampedPose& p : out) p.T_world_body = prior * p.T_world_body;
   return out;
+}
+
+const ComponentPlacement* RobotFusionReport::later_component(int c) const {
+  for (const ComponentPlacement& p : later_components) {
+    if (p.component == c) return &p;
+  }
+  return nullptr;
 }
 
 Eigen::Isometry3d RobotFusionReport::T_world(int c) const {
@@ -298,49 +315,29 @@ Eigen::Isometry3d RobotFusionReport::T_world(int c) const {
 }
 
 std::optional<Eigen::Isometry3d> Server::last_placement(int robot_id, int component) const {
-  if (!last_merge_) return std::nullopt;
-  for (const RobotFusionReport& r : last_merge_->robots) {
-    if (r.robot_id != robot_id) continue;
-    if (component == r.component) return r.T_world_robot;
-    for (const ComponentPlacement& p : r.later_components) {
-      if (p.component == component) return p.T_world_component;
-    }
-  }
+  const RobotFusionReport* r = last_report(robot_id);
+  if (r == nullptr) return std::nullopt;
+  if (component == r->component) return r->T_world_robot;
+  if (const ComponentPlacement* p = r->later_component(component)) return p->T_world_component;
   return std::nullopt;
 }
 
 Eigen::Isometry3d Server::T_world_component(int robot_id, int component) const {
   const RobotState& robot = state(robot_id);
-  if (last_merge_) {
-    for (const RobotFusionReport& r : last_merge_->robots) {
-      if (r.robot_id == robot_id) return r.T_world(component);
-    }
-  }
-  return robot.spec.T_world_robot;
+  const RobotFusionReport* r = last_report(robot_id);
+  return r != nullptr ? r->T_world(component) : robot.spec.T_world_robot;
 }
 
 core::PointCloud Server::world_cloud(int robot_id) const {
   const RobotState& robot = state(robot_id);
-  const RobotFusionReport* fused = nullptr;
-  if (last_merge_) {
-    for (const RobotFusionReport& r : last_merge_->robots) fused = r.robot_id == robot_id ? &r : fused;
-  }
-  std::set<int> components;
-  for (const auto& entry : robot.keyframes) components.insert(entry.second.component);
+  const RobotFusionReport* fused = last_report(robot_id);
   core::PointCloud cloud;
-  for (int c : components) {
-    Eigen::Isometry3d T = robot.spec.T_world_robot;
+  for (int c : components(robot)) {
     if (c != robot.component) {
-      const ComponentPlacement* placement = nullptr;
-      if (fused != nullptr) {
-        for (const ComponentPlacement& p : fused->later_components) placement = p.component == c ? &p : placement;
-      }
-      if (placement == nullptr || !placement->placed) continue;
-      T = placement->T_world_component;
-    } else if (fused != nullptr) {
-      T = fused->T_world_robot;
+      const ComponentPlacement* p = fused != nullptr ? fused->later_component(c) : nullptr;
+      if (p == nullptr || !p->placed) continue;  // left out of the map
     }
-    cloud.append(core::transformed(robot_cloud(robot_id, c), T));
+    cloud.append(core::transformed(robot_cloud(robot_id, c), T_world_component(robot_id, c)));
   }
   return cloud;
 }
@@ -367,12 +364,9 @@ const ServerMergeReport& Server::merge() {
   std::vector<LaterUnit> later;
   int next_id = robots_.empty() ? 0 : robots_.rbegin()->first + 1;
   for (const auto& [id, robot] : robots_) {
-    std::set<int> components;
-    for (const auto& entry : robot.keyframes) {
-      if (entry.second.component != robot.component) components.insert(entry.second.component);
-    }
     Eigen::Isometry3d previous = T_world_component(id, robot.component);
-    for (int c : components) {
+    for (int c : components(robot)) {
+      if (c == robot.component) continue;
       RobotCloud input;
       input.robot_id = next_id;
       input.cloud_robot = robot_cloud(id, c);
@@ -454,7 +448,8 @@ const ServerMergeReport& Server::merge() {
     const auto by_time = [](const core::StampedPose& a, const core::StampedPose& b) { return a.t_ns < b.t_ns; };
     std::stable_sort(r.fused.keyframes_world.begin(), r.fused.keyframes_world.end(), by_time);
     std::stable_sort(r.fused.frames_world.begin(), r.fused.frames_world.end(), by_time);
-    r.points = robot_cloud(id).size();
+    r.points = 0;
+    for (const auto& entry : robot.keyframes) r.points += entry.second.dense_cam.size();
     std::size_t placed_later = 0;
     for (const ComponentPlacement& p : r.later_components) placed_later += p.placed ? 1 : 0;
     logger_->info("{}: {} dense points, {} in the overlap, {} anchor keyframes{}{}", r.name, r.points, r.overlap_points,

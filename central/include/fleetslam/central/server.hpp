@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,7 @@ struct RobotFusionReport {
   // component; a later one's own placement, or its prior while not placed; one newer than the merge
   // continues the newest component before it.
   Eigen::Isometry3d T_world(int component) const;
+  const ComponentPlacement* later_component(int component) const;  // nullptr when not a later one
 };
 
 struct ServerMergeReport {
@@ -193,6 +195,8 @@ class Server {
   std::optional<Eigen::Isometry3d> keyframe_pose(const RobotState& robot, slam::KeyframeId id) const;
   // The component's transform in the last merge (nullopt: no merge yet, or the component was not in it).
   std::optional<Eigen::Isometry3d> last_placement(int robot_id, int component) const;
+  const RobotFusionReport* last_report(int robot_id) const;  // nullptr before the first merge
+  static std::set<int> components(const RobotState& robot);  // of the keyframes held
 
   ServerConfig config_;
   core::Logger logger_;
