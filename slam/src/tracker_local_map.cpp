@@ -50,6 +50,26 @@ std::vector<KeyframeId> local_keyframes(const std::vector<std::pair<KeyframeId, 
   return local;
 }
 
+// The points of `local` keyframes not in `considered` (which collects them) that are visible from
+// T_cw, each counted as visible in the map when `count_visible` (the local map stage's statistics).
+std::vector<ProjectedPoint> project_keyframe_points(const std::vector<KeyframeId>& local, Map& map, const Frame& f,
+                                                    const Eigen::Isometry3d& T_cw, const ProjectionSearchConfig& config,
+                                                    std::set<MapPointId>& considered, bool count_visible) {
+  std::vector<ProjectedPoint> projected;
+  for (KeyframeId kf_id : local) {
+    for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
+      if (id == kNoMapPoint || !considered.insert(id).second) continue;
+      MapPoint* p = map.point(id);
+      if (p == nullptr) continue;
+      if (auto visible = project_map_point(*p, f, T_cw, config)) {
+        if (count_visible) ++p->visible;
+        projected.push_back(*visible);
+      }
+    }
+  }
+  return projected;
+}
+
 }  // namespace
 
 bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
@@ -70,21 +90,11 @@ bool Tracker::track_local_map(Working& w, Map& map, TrackingResult& result) {
     }
   }
   const Eigen::Isometry3d T_cw = f.T_world_cam->inverse();
-  std::vector<ProjectedPoint> projected;
   std::set<MapPointId> considered = in_frame;
   const std::vector<KeyframeId> local =
       local_keyframes(observing, map, config_.local_neighbours_per_keyframe, config_.max_local_keyframes);
-  for (KeyframeId kf_id : local) {
-    for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
-      if (id == kNoMapPoint || !considered.insert(id).second) continue;
-      MapPoint* p = map.point(id);
-      if (p == nullptr) continue;
-      if (auto visible = project_map_point(*p, f, T_cw, config_.local_map)) {
-        ++p->visible;
-        projected.push_back(*visible);
-      }
-    }
-  }
+  const std::vector<ProjectedPoint> projected =
+      project_keyframe_points(local, map, f, T_cw, config_.local_map, considered, true);
   const int found = search_by_projection(f, projected, map, config_.local_map);
   for (std::size_t i = 0; i < f.size(); ++i) {
     if (f.map_points[i] != kNoMapPoint) w.temporary[i].reset();  // a map point beats a temporary one
@@ -122,16 +132,8 @@ bool Tracker::track_from_gyro(Working& w, Map& map, TrackingResult& result) {
   }
   ProjectionSearchConfig wide = config_.local_map;
   wide.radius_factor *= config_.gyro.recovery_radius_factor;
-  std::vector<ProjectedPoint> projected;
   std::set<MapPointId> considered;
-  for (KeyframeId kf_id : local) {
-    for (MapPointId id : map.keyframe(kf_id)->frame.map_points) {
-      if (id == kNoMapPoint || !considered.insert(id).second) continue;
-      const MapPoint* p = map.point(id);
-      if (p == nullptr) continue;
-      if (auto visible = project_map_point(*p, f, *T_cw, wide)) projected.push_back(*visible);
-    }
-  }
+  const std::vector<ProjectedPoint> projected = project_keyframe_points(local, map, f, *T_cw, wide, considered, false);
   const int found = search_by_projection(f, projected, map, wide);
   result.timings.local_map_ms += watch.elapsed_ms();
   result.frame_matches = found;
