@@ -11,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/intrin.hpp>
+#include <opencv2/core/utility.hpp>
 
 namespace fleetslam::sim {
 namespace {
@@ -71,6 +72,32 @@ std::uint64_t splitmix64(std::uint64_t* state) {
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
   return z ^ (z >> 31);
+}
+
+// Images are drawn in a fixed partition into row bands, each band with its own streams, so that the
+// bands run in parallel on OpenCV's thread pool and the draws depend neither on the thread count
+// nor on the order the bands run in.
+constexpr int kRowBands = 8;
+
+// Seeds of `per_band` streams for each row band (band b's stream s: entry b * per_band + s), the
+// first draws of a splitmix64 sequence from one draw of a model's generator.
+std::vector<std::uint64_t> row_band_seeds(std::uint64_t image_seed, int per_band) {
+  std::vector<std::uint64_t> seeds(static_cast<std::size_t>(kRowBands * per_band));
+  for (std::uint64_t& seed : seeds) seed = splitmix64(&image_seed);
+  return seeds;
+}
+
+// body(band, first_row, end_row) for each non-empty band of rows [first_row, end_row) of an image
+// `height` rows high, in parallel.
+template <class Body>
+void for_each_row_band(int height, const Body& body) {
+  const int rows_per_band = (height + kRowBands - 1) / kRowBands;
+  const int bands = rows_per_band > 0 ? (height + rows_per_band - 1) / rows_per_band : 0;
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    for (int b = range.start; b < range.end; ++b) {
+      body(b, b * rows_per_band, std::min(height, (b + 1) * rows_per_band));
+    }
+  });
 }
 
 // High and low halves of the 128-bit product, xor-ed.
@@ -527,68 +554,75 @@ cv::Mat DepthNoiseModel::apply(const cv::Mat& depth_m, const core::PinholeCamera
   const auto width = static_cast<std::size_t>(depth_m.cols);
   const int height = depth_m.rows;
 
-  DepthRows rows(depth_m, camera, static_cast<float>(config_.edge_jump_m), band_px, config_.grazing_dropout_deg);
-  // Draws: one seed from the model's generator per image, expanded into a stream of Gaussian table
-  // indices (one for each kept pixel, row-major) and one of uniforms (one for each in-range band pixel
-  // not dropped at grazing incidence, row-major; none when the probability is 1).
-  std::uint64_t seed = rng_();
-  NormalIndexStream indices(splitmix64(&seed), width);
-  WyRand uniforms(splitmix64(&seed));
+  // Draws: one seed from the model's generator per image, expanded into two streams per row band
+  // (see for_each_row_band): Gaussian table indices (one for each kept pixel, row-major) and uniforms
+  // (one for each in-range band pixel not dropped at grazing incidence, row-major; none when the
+  // probability is 1).
+  const std::vector<std::uint64_t> seeds = row_band_seeds(rng_(), 2);
   const auto drop_below = static_cast<std::uint64_t>(std::ceil(p_edge * 0x1.0p53));
   const float* table = unit_normal_table().data();
-  std::vector<std::uint8_t> keep(width + sizeof(std::uint64_t), 0);
-  std::vector<std::pair<std::size_t, std::size_t>> runs;
-  std::vector<std::uint8_t> band(edge_dropout ? width + sizeof(std::uint64_t) : 0, 0);
-  std::vector<float> noise(width);
+  const auto jump_m = static_cast<float>(config_.edge_jump_m);
+  const double grazing_dropout_deg = config_.grazing_dropout_deg;
   cv::Mat noisy(depth_m.size(), CV_32FC1);
 
-  // Before row v: sanitised rows up to v + ahead + 1, jumps and edges up to v + ahead.
-  const int ahead = band_px;
-  const bool pairs = edge_dropout || grazing_dropout;
-  int sanitized = 0, jumped = 0, edged = 0;  // rows done
-  for (int v = 0; v < height; ++v) {
-    const int need = std::min(height - 1, v + ahead);
-    for (; sanitized <= std::min(height - 1, need + 1); ++sanitized) rows.sanitize(sanitized);
-    if (pairs) {
-      for (; jumped <= need; ++jumped) rows.jumps(jumped);
-    }
-    if (edge_dropout) {
-      for (; edged <= need; ++edged) rows.edges(edged);
-    }
-    rows.keep(v, grazing_dropout, min_m, max_m, keep.data());
-    if (edge_dropout) {
-      rows.band(v, band.data());
-      if (p_edge >= 1.0) {
-        for (std::size_t u = 0; u < width; ++u) keep[u] &= band[u] ^ 1;
-      } else {
-        // Kept band pixels, eight at a time: most words have none. A uniform u = (x >> 11) 2^-53 is
-        // below p exactly when x >> 11 is below ceil(p 2^53).
-        for (std::size_t u0 = 0; u0 < width; u0 += 8) {
-          std::uint64_t b8, k8;
-          std::memcpy(&b8, band.data() + u0, sizeof b8);
-          std::memcpy(&k8, keep.data() + u0, sizeof k8);
-          if ((b8 & k8) == 0) continue;
-          for (std::size_t u = u0; u < std::min(u0 + 8, width); ++u) {
-            const bool candidate = (band[u] & keep[u]) != 0;
-            const bool drop = candidate & ((uniforms.next_if(candidate) >> 11) < drop_below);
-            keep[u] &= static_cast<std::uint8_t>(!drop);
+  for_each_row_band(height, [&](int band_index, int first_row, int end_row) {
+    DepthRows rows(depth_m, camera, jump_m, band_px, grazing_dropout_deg);
+    NormalIndexStream indices(seeds[2 * static_cast<std::size_t>(band_index)], width);
+    WyRand uniforms(seeds[2 * static_cast<std::size_t>(band_index) + 1]);
+    std::vector<std::uint8_t> keep(width + sizeof(std::uint64_t), 0);
+    std::vector<std::pair<std::size_t, std::size_t>> runs;
+    std::vector<std::uint8_t> band(edge_dropout ? width + sizeof(std::uint64_t) : 0, 0);
+    std::vector<float> noise(width);
+
+    // Row v needs sanitised rows up to v + ahead + 1 and back to v - 1, jumps of rows v - 1 .. v + ahead
+    // and edges of rows v - ahead .. v + ahead. Rows come in in order (row r: sanitised row r + 1,
+    // jumps and edges of row r), from far enough above the band's first row.
+    const int ahead = band_px;
+    const bool pairs = edge_dropout || grazing_dropout;
+    const int first_edge = std::max(0, first_row - ahead);
+    int next = std::max(0, first_row - ahead - 1);
+    rows.sanitize(next);
+    for (int v = first_row; v < end_row; ++v) {
+      for (const int need = std::min(height - 1, v + ahead); next <= need; ++next) {
+        if (next + 1 < height) rows.sanitize(next + 1);
+        if (pairs) rows.jumps(next);
+        if (edge_dropout && next >= first_edge) rows.edges(next);
+      }
+      rows.keep(v, grazing_dropout, min_m, max_m, keep.data());
+      if (edge_dropout) {
+        rows.band(v, band.data());
+        if (p_edge >= 1.0) {
+          for (std::size_t u = 0; u < width; ++u) keep[u] &= band[u] ^ 1;
+        } else {
+          // Kept band pixels, eight at a time: most words have none. A uniform u = (x >> 11) 2^-53 is
+          // below p exactly when x >> 11 is below ceil(p 2^53).
+          for (std::size_t u0 = 0; u0 < width; u0 += 8) {
+            std::uint64_t b8, k8;
+            std::memcpy(&b8, band.data() + u0, sizeof b8);
+            std::memcpy(&k8, keep.data() + u0, sizeof k8);
+            if ((b8 & k8) == 0) continue;
+            for (std::size_t u = u0; u < std::min(u0 + 8, width); ++u) {
+              const bool candidate = (band[u] & keep[u]) != 0;
+              const bool drop = candidate & ((uniforms.next_if(candidate) >> 11) < drop_below);
+              keep[u] &= static_cast<std::uint8_t>(!drop);
+            }
           }
         }
       }
+      // The k-th kept pixel of the row takes the k-th index: per run of kept pixels, one contiguous
+      // gather (dropped pixels' noise is not used).
+      kept_runs(keep.data(), width, &runs);
+      std::size_t kept = 0;
+      for (const auto& [start, end] : runs) kept += end - start;
+      const std::uint16_t* index = indices.take(kept);
+      for (const auto& [start, end] : runs) {
+        gather_row(table, index, end - start, noise.data() + start);
+        index += end - start;
+      }
+      noisy_depth_row(rows.sanitized_row(v), keep.data(), noise.data(), width, sigma_base_m, sigma_quadratic,
+                      noisy.ptr<float>(v));
     }
-    // The k-th kept pixel of the row takes the k-th index: per run of kept pixels, one contiguous
-    // gather (dropped pixels' noise is not used).
-    kept_runs(keep.data(), width, &runs);
-    std::size_t kept = 0;
-    for (const auto& [start, end] : runs) kept += end - start;
-    const std::uint16_t* index = indices.take(kept);
-    for (const auto& [start, end] : runs) {
-      gather_row(table, index, end - start, noise.data() + start);
-      index += end - start;
-    }
-    noisy_depth_row(rows.sanitized_row(v), keep.data(), noise.data(), width, sigma_base_m, sigma_quadratic,
-                    noisy.ptr<float>(v));
-  }
+  });
   return noisy;
 }
 
@@ -645,44 +679,51 @@ cv::Mat ImageNoiseModel::apply(const cv::Mat& image, core::TimeNs t_ns) {
   // noise (table lookups), then the rest in SIMD.
   const auto sigma = static_cast<float>(config_.sigma_intensity);
   const auto values_per_row = static_cast<std::size_t>(image.cols) * static_cast<std::size_t>(image.channels());
-  // One seed per image (none without noise), expanded into one table index per value, row-major.
-  std::uint64_t seed = sigma != 0.0f ? rng_() : 0;
-  NormalIndexStream indices(splitmix64(&seed), sigma != 0.0f ? values_per_row : 0);
+  // One seed per image (none without noise), expanded into one stream per row band (see
+  // for_each_row_band) of table indices, one per value, row-major.
+  const std::vector<std::uint64_t> seeds = sigma != 0.0f ? row_band_seeds(rng_(), 1) : std::vector<std::uint64_t>{};
+  const std::size_t stream_take = sigma != 0.0f ? values_per_row : 0;
   cv::Mat noisy(image.size(), image.type());
   if (gain_ == 1.0 && !rounded_noise_.empty()) {
-    std::vector<std::int8_t> noise(values_per_row);
-    const std::int8_t* table = rounded_noise_.data();
-    for (int v = 0; v < image.rows; ++v) {
-      const std::uint16_t* index = indices.take(values_per_row);
+    for_each_row_band(image.rows, [&](int band, int first_row, int end_row) {
+      NormalIndexStream indices(seeds[static_cast<std::size_t>(band)], stream_take);
+      std::vector<std::int8_t> noise(values_per_row);
+      const std::int8_t* table = rounded_noise_.data();
+      for (int v = first_row; v < end_row; ++v) {
+        const std::uint16_t* index = indices.take(values_per_row);
 #if defined(__GNUC__)
 #pragma GCC unroll 8
 #endif
-      for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
-      add_rounded_noise_row(image.ptr<std::uint8_t>(v), noise.data(), values_per_row, noisy.ptr<std::uint8_t>(v));
-    }
+        for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
+        add_rounded_noise_row(image.ptr<std::uint8_t>(v), noise.data(), values_per_row, noisy.ptr<std::uint8_t>(v));
+      }
+    });
     return noisy;
   }
   const bool unit_gain = gain_ == 1.0;
   float scaled[256];
   for (int i = 0; i < 256; ++i) scaled[i] = static_cast<float>(gain_ * i);
-  std::vector<float> noise(values_per_row, 0.0f);
-  std::vector<float> base(unit_gain ? 0 : values_per_row);
   const float* table = unit_normal_table().data();
-  for (int v = 0; v < image.rows; ++v) {
-    const std::uint8_t* in = image.ptr<std::uint8_t>(v);
-    if (sigma != 0.0f) {
-      const std::uint16_t* index = indices.take(values_per_row);
+  for_each_row_band(image.rows, [&](int band, int first_row, int end_row) {
+    NormalIndexStream indices(sigma != 0.0f ? seeds[static_cast<std::size_t>(band)] : 0, stream_take);
+    std::vector<float> noise(values_per_row, 0.0f);
+    std::vector<float> base(unit_gain ? 0 : values_per_row);
+    for (int v = first_row; v < end_row; ++v) {
+      const std::uint8_t* in = image.ptr<std::uint8_t>(v);
+      if (sigma != 0.0f) {
+        const std::uint16_t* index = indices.take(values_per_row);
 #if defined(__GNUC__)
 #pragma GCC unroll 8
 #endif
-      for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
+        for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
+      }
+      if (!unit_gain) {
+        for (std::size_t k = 0; k < values_per_row; ++k) base[k] = scaled[in[k]];
+      }
+      add_noise_row(in, unit_gain ? nullptr : base.data(), noise.data(), sigma, values_per_row,
+                    noisy.ptr<std::uint8_t>(v));
     }
-    if (!unit_gain) {
-      for (std::size_t k = 0; k < values_per_row; ++k) base[k] = scaled[in[k]];
-    }
-    add_noise_row(in, unit_gain ? nullptr : base.data(), noise.data(), sigma, values_per_row,
-                  noisy.ptr<std::uint8_t>(v));
-  }
+  });
   return noisy;
 }
 

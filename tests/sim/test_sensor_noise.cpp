@@ -2,7 +2,8 @@
 // sigma_z(z) of Nguyen et al. 2012 on fronto-parallel planes, the valid range, grazing dropout against
 // the analytic incidence angle of a floor, dropout near a depth step, all dropout against a plain
 // per-pixel reference on a cluttered scene, intensity noise and saturation (also under exposure
-// changes), the exposure process, repeatability from the seed, and the cost of a 640x480 frame.
+// changes), the exposure process, repeatability from the seed and independence of the thread count,
+// and the cost of a 640x480 frame.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -11,9 +12,11 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "fleetslam/sim/sensor_noise.hpp"
@@ -320,6 +323,113 @@ TEST(DepthNoise, DropoutMatchesAPlainReference) {
   EXPECT_EQ(wrong, 0);
   ASSERT_GT(band_pixels, 2000);
   EXPECT_NEAR(kept_fraction, 0.7, 5.0 * std::sqrt(0.21 / band_pixels));
+}
+
+// Depth of every kind (slanted surfaces, steps, holes, out of range) at any size, from the pixel
+// coordinates alone.
+cv::Mat patterned_depth(int width, int height) {
+  cv::Mat depth(height, width, CV_32FC1);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      float z = 1.0f + 0.3f * static_cast<float>((u / 3 + v / 2) % 3) + 0.01f * static_cast<float>(u + 2 * v);
+      if ((u * 7 + v * 3) % 23 == 0) z = 0.0f;
+      if ((u + v) % 31 == 0) z = 0.1f;
+      depth.at<float>(v, u) = z;
+    }
+  }
+  return depth;
+}
+
+TEST(DepthNoise, DropoutMatchesAPlainReferenceAtEverySize) {
+  // Heights below, at and around the eight row bands, with bands narrower than the edge band.
+  for (const auto& [width, height] : {std::pair{40, 13}, std::pair{24, 5}, std::pair{17, 8}, std::pair{9, 1},
+                                      std::pair{33, 47}}) {
+    const core::PinholeCamera camera(width, height, 30.0, 30.0, (width - 1) / 2.0, (height - 1) / 2.0);
+    const cv::Mat truth = patterned_depth(width, height);
+    for (int band_px : {0, 1, 3}) {
+      for (double probability : {0.0, 1.0}) {
+        DepthNoiseConfig config;
+        config.sigma_base_m = 0.0;
+        config.sigma_quadratic = 0.0;
+        config.edge_band_px = band_px;
+        config.edge_dropout_probability = probability;
+        DepthNoiseModel model(config, 11);
+        const cv::Mat noisy = model.apply(truth, camera);
+        const cv::Mat expected = reference_keep(truth, camera, config, probability > 0.0);
+        int mismatches = 0;
+        for (int v = 0; v < height; ++v) {
+          for (int u = 0; u < width; ++u) {
+            const float want = expected.at<std::uint8_t>(v, u) != 0 ? truth.at<float>(v, u) : 0.0f;
+            if (noisy.at<float>(v, u) != want) ++mismatches;
+          }
+        }
+        EXPECT_EQ(mismatches, 0) << width << "x" << height << ", band " << band_px << ", probability "
+                                 << probability;
+      }
+    }
+  }
+}
+
+// OpenCV's thread count for a scope.
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int threads) : previous_(cv::getNumThreads()) { cv::setNumThreads(threads); }
+  ~OpenCvThreads() { cv::setNumThreads(previous_); }
+  OpenCvThreads(const OpenCvThreads&) = delete;
+  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
+
+ private:
+  int previous_;
+};
+
+TEST(SensorNoise, ImagesDoNotDependOnTheThreadCount) {
+  const core::PinholeCamera camera = vga_camera();
+  const cv::Mat depth = cluttered_depth(camera);
+  cv::Mat rgb(480, 640, CV_8UC3);
+  cv::randu(rgb, cv::Scalar::all(0), cv::Scalar::all(256));
+  ImageNoiseConfig exposure;
+  exposure.exposure_changes = true;  // the general path (gain), besides the rounded table at unit gain
+  const auto run = [&](int threads) {
+    const OpenCvThreads scope(threads);
+    DepthNoiseModel depth_model(DepthNoiseConfig{}, 3);
+    ImageNoiseModel image_model(ImageNoiseConfig{}, 3);
+    ImageNoiseModel exposure_model(exposure, 3);
+    std::vector<cv::Mat> images;
+    for (int k = 0; k < 3; ++k) {
+      images.push_back(depth_model.apply(depth, camera));
+      images.push_back(image_model.apply(rgb, k * 33'000'000));
+      images.push_back(exposure_model.apply(rgb, k * 33'000'000));
+    }
+    return images;
+  };
+  const std::vector<cv::Mat> one = run(1);
+  for (int threads : {2, 5}) {
+    const std::vector<cv::Mat> many = run(threads);
+    ASSERT_EQ(many.size(), one.size());
+    for (std::size_t i = 0; i < one.size(); ++i) {
+      EXPECT_EQ(cv::norm(one[i], many[i], cv::NORM_INF), 0.0) << "image " << i << " with " << threads << " threads";
+    }
+  }
+}
+
+// Each row band draws its own stream: the noise of two bands is uncorrelated (not one stream
+// repeated or shifted), here on rows 60 apart that each band starts with.
+TEST(ImageNoise, RowBandsDrawIndependentNoise) {
+  const cv::Mat clean(480, 640, CV_8UC1, cv::Scalar(128));
+  ImageNoiseConfig config;
+  config.sigma_intensity = 10.0;
+  ImageNoiseModel model(config, 12);
+  cv::Mat noise;
+  model.apply(clean, 0).convertTo(noise, CV_64F, 1.0, -128.0);
+  for (int shift = 0; shift <= 4; ++shift) {
+    for (int band = 0; band + 1 < 8; ++band) {
+      const cv::Mat a = noise.row(band * 60).colRange(0, 600);
+      const cv::Mat b = noise.row((band + 1) * 60).colRange(shift, 600 + shift);
+      const double correlation = a.dot(b) / std::sqrt(a.dot(a) * b.dot(b));
+      // 600 samples: std of the sample correlation 0.04.
+      EXPECT_LT(std::abs(correlation), 0.2) << "bands " << band << ", " << band + 1 << ", shift " << shift;
+    }
+  }
 }
 
 TEST(DepthNoise, SameSeedSameImageAndDisabledIsACopy) {

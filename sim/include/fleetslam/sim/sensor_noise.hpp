@@ -5,19 +5,21 @@
 //    the surface normal, estimated from the depth image, and the viewing ray) and near depth edges,
 //    and a valid range. Invalid depth is 0.
 //    Normals come from the clean input depth back-projected with the camera (its gradient by central
-//    differences, one-sided towards the neighbour nearer in depth beside holes and depth edges); edges are 4-neighbour jumps above edge_jump_m
-//    between valid pixels, widened by edge_band_px (square neighbourhood). The range applies to the
-//    true depth; invalid input (0, NaN, infinite, negative) is never kept. Draws, row-major: per row,
-//    one uniform for each in-range band pixel not dropped at grazing incidence (none when the edge
-//    probability is 1), then one Gaussian for each kept pixel.
+//    differences, one-sided towards the neighbour nearer in depth beside holes and depth edges); edges
+//    are 4-neighbour jumps above edge_jump_m between valid pixels, widened by edge_band_px (square
+//    neighbourhood). The range applies to the true depth; invalid input (0, NaN, infinite, negative)
+//    is never kept. Draws, row-major within a row band: per row, one uniform for each in-range band
+//    pixel not dropped at grazing incidence (none when the edge probability is 1), then one Gaussian
+//    for each kept pixel.
 //  - Image: additive Gaussian noise on 8-bit intensities, and optional slow exposure (gain) changes:
 //    out = saturate(round(gain * in + sigma_intensity * n)), log gain an Ornstein-Uhlenbeck process
 //    (stationary std exposure_sigma, time constant exposure_correlation_s) starting at 0.
 // Gaussian pixel noise is drawn from a 2^16-entry quantile table of N(0, 1) (tails cut at ~4.3 sigma),
-// indexed by 16-bit pieces of a fast per-image stream (wyrand) that one draw of the model's generator
-// seeds, so a model's generator advances one draw per image (plus the exposure process's). A
-// 640x480 frame takes well under a millisecond; the same seed gives the same images with or without
-// AVX2.
+// indexed by 16-bit pieces of fast streams (wyrand) that one draw of the model's generator seeds, so a
+// model's generator advances one draw per image (plus the exposure process's). An image is drawn in
+// a fixed partition into eight bands of whole rows, each with its own streams, in parallel on
+// OpenCV's thread pool: the same seed gives the same images with any thread count, with or without
+// AVX2. A 640x480 frame takes about a millisecond on one core.
 // Disabled models return an unchanged deep copy and draw nothing.
 
 #include <cstdint>
