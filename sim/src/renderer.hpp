@@ -1,6 +1,7 @@
 #pragma once
 // Internal: one OSMesa GL context and MuJoCo render context shared by every camera of a world.
 
+#include <cstdint>
 #include <memory>
 
 #include <opencv2/core/mat.hpp>
@@ -30,6 +31,10 @@ class Renderer {
               const RenderOptions& options, cv::Mat* bgr, cv::Mat* depth_m);
 
  private:
+  // bgra: width x height x 4 bytes; depth_stencil: width x height words, or null for no depth.
+  // Throws fleetslam::Error when GL reports an error.
+  void read_offscreen(const mjrRect& viewport, unsigned char* bgra, std::uint32_t* depth_stencil);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
