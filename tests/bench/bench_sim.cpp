@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 
 #include "fleetslam/sim/scenario.hpp"
 #include "fleetslam/sim/sensor_noise.hpp"
@@ -43,8 +44,22 @@ fleetslam::sim::ScenarioConfig one_robot_scenario(bool noise = true) {
 
 double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
-// The full pipeline: World::step() renders one frame per call (one robot); range(0) = noise models on.
+// OpenCV's thread count for a scope.
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int threads) : previous_(cv::getNumThreads()) { cv::setNumThreads(threads); }
+  ~OpenCvThreads() { cv::setNumThreads(previous_); }
+  OpenCvThreads(const OpenCvThreads&) = delete;
+  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
+
+ private:
+  int previous_;
+};
+
+// The full pipeline: World::step() renders one frame per call (one robot); range(0) = noise models on,
+// range(1) = OpenCV's thread count (the renderer's row work and the noise models' row bands).
 void BM_SensorPipeline(benchmark::State& state) {
+  const OpenCvThreads threads(static_cast<int>(state.range(1)));
   fleetslam::sim::World world(one_robot_scenario(state.range(0) != 0), nullptr);
   for (auto _ : state) {
     auto frames = world.step();
@@ -135,8 +150,10 @@ const CleanFrame& clean_frame() {
 }
 
 // The noise models alone on a rendered frame, with the scenario's settings (main thread only).
+// range(0): OpenCV's thread count (the models draw their row bands on its pool).
 void BM_DepthNoise(benchmark::State& state) {
   const CleanFrame& frame = clean_frame();
+  const OpenCvThreads threads(static_cast<int>(state.range(0)));
   if (frame.depth_m.empty()) {
     state.SkipWithError("the scenario's first camera has no depth");
     return;
@@ -150,6 +167,7 @@ void BM_DepthNoise(benchmark::State& state) {
 
 void BM_ImageNoise(benchmark::State& state) {
   const CleanFrame& frame = clean_frame();
+  const OpenCvThreads threads(static_cast<int>(state.range(0)));
   fleetslam::sim::ImageNoiseModel model(one_robot_scenario().robots[0].camera.image_noise, 1);
   fleetslam::core::TimeNs t_ns = 0;
   for (auto _ : state) {
@@ -164,15 +182,17 @@ void BM_ImageNoise(benchmark::State& state) {
 // Real time: llvmpipe renders on its own threads, which the main thread's CPU time does not see.
 BENCHMARK(BM_BareRender)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime()->ComputeStatistics("min", min_of);
 BENCHMARK(BM_SensorPipeline)
-    ->ArgName("noise")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"noise", "threads"})
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->Args({1, 1})
+    ->Args({1, 2})
     ->Unit(benchmark::kMillisecond)
     ->MinTime(3.0)
     ->UseRealTime()
     ->ComputeStatistics("min", min_of);
-BENCHMARK(BM_DepthNoise)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", min_of);
-BENCHMARK(BM_ImageNoise)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", min_of);
+BENCHMARK(BM_DepthNoise)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->ComputeStatistics("min", min_of);
+BENCHMARK(BM_ImageNoise)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->ComputeStatistics("min", min_of);
 
 int main(int argc, char** argv) {
   std::vector<char*> rest;
