@@ -4,14 +4,24 @@
 //   bench_sim [--scenario scenes/office/office_2robots.yaml] [google-benchmark flags]
 // The first robot's camera is measured; its resolution is the scenario's (override: --width/--height).
 // Time is wall time (llvmpipe renders on its own threads); CPU is the main thread's, so the pipeline's
-// CPU minus the bare render's is the sensor pipeline's own cost. On a shared machine run with
-// --benchmark_repetitions=5: the "_min" rows are the best estimates of the undisturbed costs.
+// CPU minus the bare render's is the sensor pipeline's own cost. The pipeline reads the offscreen
+// buffer in llvmpipe's own formats (see sim/src/renderer.cpp); BM_BareRender/packed:1 is the bare
+// render with that readback, for the overhead of everything else. On a shared machine run with
+//   --benchmark_repetitions=6 --benchmark_enable_random_interleaving=true
+// (repetitions interleaved, so a slow spell hits every benchmark alike): the "_min" rows are the best
+// estimates of the undisturbed costs, the "_median" rows the typical ones.
 
+#ifndef GL_GLEXT_PROTOTYPES
+#define GL_GLEXT_PROTOTYPES
+#endif
+#include <GL/gl.h>
+#include <GL/glext.h>
 #include <GL/osmesa.h>
 #include <benchmark/benchmark.h>
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -68,8 +78,11 @@ void BM_SensorPipeline(benchmark::State& state) {
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-// Bare rendering: the scene with one fixed camera placed where the robot's camera starts.
+// Bare rendering: the scene with one fixed camera placed where the robot's camera starts. range(0) = 0:
+// mjr_readPixels (RGB bytes, float depth); 1: glReadPixels in the formats the pipeline reads (BGRA
+// bytes, packed 24-bit depth and stencil), without the pipeline's conversions.
 void BM_BareRender(benchmark::State& state) {
+  const bool packed = state.range(0) != 0;
   const auto scenario = one_robot_scenario();
   fleetslam::sim::World world(scenario, nullptr);  // for the camera's start pose only
   const auto& camera = scenario.robots[0].camera;
@@ -118,12 +131,22 @@ void BM_BareRender(benchmark::State& state) {
   const mjrRect viewport{0, 0, camera.width, camera.height};
   std::vector<unsigned char> rgb(static_cast<std::size_t>(camera.width) * camera.height * 3);
   std::vector<float> depth(static_cast<std::size_t>(camera.width) * camera.height);
+  std::vector<unsigned char> bgra(static_cast<std::size_t>(camera.width) * camera.height * 4);
+  std::vector<std::uint32_t> depth_stencil(static_cast<std::size_t>(camera.width) * camera.height);
   for (auto _ : state) {
     mjv_updateScene(m, d, &opt, nullptr, &cam, mjCAT_ALL, &scn);
     scn.flags[mjRND_SHADOW] = camera.shadows ? 1 : 0;
     mjr_render(viewport, &scn, &con);
-    mjr_readPixels(rgb.data(), depth.data(), viewport, &con);
-    benchmark::DoNotOptimize(rgb.data());
+    if (packed) {
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, con.offFBO);
+      glReadBuffer(GL_COLOR_ATTACHMENT0);
+      glReadPixels(0, 0, camera.width, camera.height, GL_BGRA, GL_UNSIGNED_BYTE, bgra.data());
+      glReadPixels(0, 0, camera.width, camera.height, GL_DEPTH_STENCIL, GL_UNSIGNED_INT_24_8, depth_stencil.data());
+      benchmark::DoNotOptimize(bgra.data());
+    } else {
+      mjr_readPixels(rgb.data(), depth.data(), viewport, &con);
+      benchmark::DoNotOptimize(rgb.data());
+    }
   }
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   mjr_freeContext(&con);
@@ -180,7 +203,7 @@ void BM_ImageNoise(benchmark::State& state) {
 }  // namespace
 
 // Real time: llvmpipe renders on its own threads, which the main thread's CPU time does not see.
-BENCHMARK(BM_BareRender)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime()->ComputeStatistics("min", min_of);
+BENCHMARK(BM_BareRender)->ArgName("packed")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(3.0)->UseRealTime()->ComputeStatistics("min", min_of);
 BENCHMARK(BM_SensorPipeline)
     ->ArgNames({"noise", "threads"})
     ->Args({0, 1})
