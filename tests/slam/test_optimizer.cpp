@@ -209,6 +209,55 @@ TEST(OptimizePose, FlagsInjectedOutliersAndStillRecoversThePose) {
   }
 }
 
+// Huber cost of every observation in front of the camera at pose T: sum of rho(chi2) with ORB-SLAM's
+// delta^2 = chi2 threshold (rho(s) = s up to delta^2, 2 delta sqrt(s) - delta^2 beyond), written plainly.
+double huber_cost(const PoseScene& scene, const Eigen::Isometry3d& T_cam_world, const OptimizerConfig& config) {
+  double cost = 0.0;
+  for (const PoseObservation& o : scene.observations) {
+    const bool stereo = o.obs.u_right >= 0.0;
+    const Eigen::Vector3d p_cam = T_cam_world * o.p_world;
+    if (p_cam.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = *test_camera().project(p_cam);
+    double s = (o.obs.uv - uv).squaredNorm();
+    if (stereo) s += std::pow(o.obs.u_right - (uv.x() - kBf / p_cam.z()), 2);
+    s *= o.obs.inv_sigma2;
+    const double delta2 = stereo ? config.chi2_stereo : config.chi2_mono;
+    cost += s <= delta2 ? s : 2.0 * std::sqrt(delta2 * s) - delta2;
+  }
+  return cost;
+}
+
+// One robust round minimises the Huber cost over all observations (many far beyond delta here): no
+// small step of the pose along any of its six directions lowers the plainly computed cost.
+TEST(OptimizePose, ARobustRoundMinimisesTheHuberCost) {
+  for (double stereo_share : {0.5, 0.0}) {
+    SceneOptions options;
+    options.pixel_sigma = 1.0;
+    options.outlier_share = 0.3;
+    options.stereo_share = stereo_share;
+    options.seed = 12;
+    const PoseScene scene = make_pose_scene(options);
+    OptimizerConfig config;
+    config.rounds = 1;  // a single round keeps the kernel
+    config.iterations_per_round = 100;
+    const PoseResult r = optimize_pose(test_camera(), kBf, scene.observations, perturbed(scene.T_cam_world), config);
+    ASSERT_TRUE(r.ok);
+    const double at_minimum = huber_cost(scene, r.T_cam_world, config);
+    int beyond_delta = 0;
+    for (std::size_t i = 0; i < r.outlier.size(); ++i) beyond_delta += r.outlier[i] ? 1 : 0;
+    EXPECT_GT(beyond_delta, options.points / 5) << "the test needs residuals in Huber's linear part";
+    for (int k = 0; k < 6; ++k) {
+      for (double step : {1e-4, -1e-4}) {
+        core::Vector6d xi = core::Vector6d::Zero();
+        xi(k) = step;
+        const double moved = huber_cost(scene, core::se3_exp(xi) * r.T_cam_world, config);
+        EXPECT_GE(moved, at_minimum - 1e-9 * at_minimum)
+            << "direction " << k << ", step " << step << ", stereo share " << stereo_share;
+      }
+    }
+  }
+}
+
 TEST(OptimizePose, FewerThanThreeObservationsAreNotEnough) {
   SceneOptions options;
   options.points = 3;
