@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include "fleetslam/core/error.hpp"
 
@@ -90,21 +92,93 @@ bool evaluate_observation(const Intrinsics& k, const Observation& obs, const dou
   return true;
 }
 
-// Tracking: the map point is fixed; parameters are the pose's quaternion and translation.
+// Huber's rho(s) = s for s <= delta^2, 2 delta sqrt(s) - delta^2 beyond (Ceres' HuberLoss; the cost is
+// rho / 2), applied inside a residual: r' = g r with g = sqrt(rho(s) / s), so |r'|^2 = rho(s), and
+// J' = a J + c r r^T J with a = sqrt(rho'(s)) (Ceres' own correction of a Huber residual's Jacobian) and
+// c = (rho' / g - a) / s, which makes J'^T r' = rho' J^T r, Huber's exact gradient. The cost and
+// gradient are Huber's; only the Gauss-Newton curvature along r itself is rho' / 2 instead of Ceres'
+// rho' for residuals far beyond delta (the true curvature there is 0): the same minimum.
 template <int kDim>
-class PoseCost final : public ceres::SizedCostFunction<kDim, 4, 3> {
+void apply_huber(double delta, double* r, double* J, int cols) {
+  double s = 0.0;
+  for (int i = 0; i < kDim; ++i) s += r[i] * r[i];
+  if (!(s > delta * delta)) return;
+  const double sqrt_s = std::sqrt(s);
+  const double rho = 2.0 * delta * sqrt_s - delta * delta;
+  const double rho1 = delta / sqrt_s;
+  const double g = std::sqrt(rho / s);
+  const double a = std::sqrt(rho1);
+  const double c = (rho1 / g - a) / s;
+  if (J != nullptr) {
+    for (int col = 0; col < cols; ++col) {
+      double rtj = 0.0;
+      for (int i = 0; i < kDim; ++i) rtj += r[i] * J[i * cols + col];
+      for (int i = 0; i < kDim; ++i) J[i * cols + col] = a * J[i * cols + col] + c * r[i] * rtj;
+    }
+  }
+  for (int i = 0; i < kDim; ++i) r[i] *= g;
+}
+
+// Tracking: every observation of a round in one residual block (the map points are fixed; parameters
+// are the pose's quaternion and translation), mono observations 2 rows, stereo 3, in the order given.
+// One block instead of one per observation: Ceres' per-block work (evaluation bookkeeping, validity
+// checks, loss correction, Jacobian scatter) cost several times the residuals themselves. Huber, when
+// robust, per observation (apply_huber).
+class PoseBatchCost final : public ceres::CostFunction {
  public:
-  PoseCost(const Intrinsics& k, const Observation& obs, const Vector3& p_world) : k_(k), obs_(obs), p_world_(p_world) {}
+  PoseBatchCost(const Intrinsics& k, const std::vector<PoseObservation>& observations, std::vector<std::size_t> used,
+                const OptimizerConfig& config, bool robust)
+      : k_(k), observations_(observations), used_(std::move(used)), robust_(robust),
+        delta_mono_(std::sqrt(config.chi2_mono)), delta_stereo_(std::sqrt(config.chi2_stereo)) {
+    int rows = 0;
+    for (std::size_t i : used_) rows += is_stereo(observations_[i].obs) ? 3 : 2;
+    set_num_residuals(rows);
+    mutable_parameter_block_sizes()->assign({4, 3});
+  }
+
   bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
-    return evaluate_observation<kDim>(k_, obs_, x[0], x[1], p_world_.data(), residuals,
-                                      jacobians != nullptr ? jacobians[0] : nullptr,
-                                      jacobians != nullptr ? jacobians[1] : nullptr, nullptr);
+    double* J_q = jacobians != nullptr ? jacobians[0] : nullptr;
+    double* J_t = jacobians != nullptr ? jacobians[1] : nullptr;
+    const Eigen::Map<const Eigen::Quaterniond> q(x[0]);
+    const Eigen::Matrix3d R = q.toRotationMatrix();
+    const Eigen::Map<const Vector3> t(x[1]);
+    const bool want_jacobian = J_q != nullptr || J_t != nullptr;
+    std::size_t row = 0;
+    for (std::size_t i : used_) {
+      const PoseObservation& o = observations_[i];
+      const Vector3 p_cam = R * o.p_world + t;
+      const bool ok = is_stereo(o.obs) ? evaluate<3>(o, q, p_cam, want_jacobian, residuals + row, J_q, J_t, row)
+                                       : evaluate<2>(o, q, p_cam, want_jacobian, residuals + row, J_q, J_t, row);
+      if (!ok) return false;
+      row += is_stereo(o.obs) ? 3 : 2;
+    }
+    return true;
   }
 
  private:
+  template <int kDim>
+  bool evaluate(const PoseObservation& o, const Eigen::Quaterniond& q, const Vector3& p_cam, bool want_jacobian,
+                double* r, double* J_q, double* J_t, std::size_t row) const {
+    Eigen::Matrix<double, kDim, 3> dr_dp;
+    if (!weighted_residual<kDim>(k_, o.obs, p_cam, r, want_jacobian ? &dr_dp : nullptr)) return false;
+    // Both Jacobians of this observation side by side (4 + 3 columns) for the kernel, then scattered.
+    Eigen::Matrix<double, kDim, 7, Eigen::RowMajor> J;
+    if (want_jacobian) {
+      J.template leftCols<4>() = dr_dp * rotated_point_jacobian(q, o.p_world);
+      J.template rightCols<3>() = dr_dp;
+    }
+    if (robust_) apply_huber<kDim>(kDim == 3 ? delta_stereo_ : delta_mono_, r, want_jacobian ? J.data() : nullptr, 7);
+    if (J_q != nullptr) jacobian_block<kDim, 4>(J_q + row * 4) = J.template leftCols<4>();
+    if (J_t != nullptr) jacobian_block<kDim, 3>(J_t + row * 3) = J.template rightCols<3>();
+    return true;
+  }
+
   Intrinsics k_;
-  Observation obs_;
-  Vector3 p_world_;
+  const std::vector<PoseObservation>& observations_;
+  std::vector<std::size_t> used_;
+  bool robust_;
+  double delta_mono_;
+  double delta_stereo_;
 };
 
 // Bundle adjustment: quaternion, translation and point are all parameters (Ceres skips the Jacobians of
@@ -206,21 +280,21 @@ int count_false(const std::vector<bool>& flags) {
 // One round: least squares over the current inliers, robust or not. False when the solve failed.
 bool solve_pose_round(const Intrinsics& k, const std::vector<PoseObservation>& observations,
                       const std::vector<bool>& outlier, bool robust, const OptimizerConfig& config, PoseBlocks& pose) {
+  std::vector<std::size_t> used;
+  used.reserve(observations.size());
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    if (!outlier[i]) used.push_back(i);
+  }
   ceres::EigenQuaternionManifold quaternion_manifold;
-  RobustKernels kernels(config);
   ceres::Problem problem(borrowing_problem_options());
   problem.AddParameterBlock(pose.q, 4, &quaternion_manifold);
   problem.AddParameterBlock(pose.t, 3);
-  for (std::size_t i = 0; i < observations.size(); ++i) {
-    if (outlier[i]) continue;
-    const PoseObservation& o = observations[i];
-    ceres::CostFunction* cost = is_stereo(o.obs)
-                                    ? static_cast<ceres::CostFunction*>(new PoseCost<3>(k, o.obs, o.p_world))
-                                    : new PoseCost<2>(k, o.obs, o.p_world);
-    problem.AddResidualBlock(cost, kernels.pick(o.obs, robust), pose.q, pose.t);
-  }
+  problem.AddResidualBlock(new PoseBatchCost(k, observations, std::move(used), config, robust), nullptr, pose.q,
+                           pose.t);
   // Six unknowns in a dense, tiny system: normal equations are cheapest and well conditioned enough.
-  return solve(solver_options(config, ceres::DENSE_NORMAL_CHOLESKY), problem);
+  ceres::Solver::Options options = solver_options(config, ceres::DENSE_NORMAL_CHOLESKY);
+  if (robust) options.max_num_iterations = config.pose_robust_iterations;
+  return solve(options, problem);
 }
 
 // Classifies every observation (inliers of the last round and earlier outliers alike) at the pose.

@@ -239,7 +239,7 @@ TEST(OptimizePose, ARobustRoundMinimisesTheHuberCost) {
     const PoseScene scene = make_pose_scene(options);
     OptimizerConfig config;
     config.rounds = 1;  // a single round keeps the kernel
-    config.iterations_per_round = 100;
+    config.pose_robust_iterations = 100;
     const PoseResult r = optimize_pose(test_camera(), kBf, scene.observations, perturbed(scene.T_cam_world), config);
     ASSERT_TRUE(r.ok);
     const double at_minimum = huber_cost(scene, r.T_cam_world, config);
