@@ -277,6 +277,22 @@ TEST(PurePursuit, TurnsOnTheSpotTowardsAPathBehind) {
   expect_limits(r, config, 0.02);
 }
 
+// Planned paths can end in a kink shorter than the goal tolerance (a goal snapped to the nearest free
+// cell): the robot must still come to the goal and be done, not stop short on the segment before.
+TEST(PurePursuit, APathEndingInAShortKinkIsFinished) {
+  const PurePursuitConfig config;
+  for (const Eigen::Vector2d& kink : {Eigen::Vector2d(-0.047, 0.033), Eigen::Vector2d(0.0, 0.06),
+                                      Eigen::Vector2d(0.03, -0.08)}) {
+    PurePursuit controller(config);
+    std::vector<Eigen::Vector2d> path = {{0.0, 0.0}, {1.0, -0.2}, {2.0, -0.4}};
+    path.push_back(path.back() + kink);
+    controller.set_path(path);
+    const DriveResult r = drive(controller, path, {0.0, 0.0}, 0.0, 30.0);
+    EXPECT_TRUE(r.done) << kink.transpose();
+    EXPECT_LE(r.final_goal_error_m, config.goal_tolerance_m) << kink.transpose();
+  }
+}
+
 TEST(PurePursuit, EmptyPathIsDoneWithAZeroCommand) {
   PurePursuit controller(PurePursuitConfig{});
   EXPECT_TRUE(controller.done());
