@@ -58,9 +58,11 @@ Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_
 Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger)
     : config_(config), planner_(planner_config, logger), logger_(logger ? std::move(logger) : core::null_logger()) {}
 
-DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries) const {
+DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries,
+                                       const std::vector<CommittedPath>& committed) const {
   DeconflictionResult result;
   std::vector<TimedPath> timed;
+  for (const CommittedPath& c : committed) timed.push_back(TimedPath{c.robot_id, c.path_world, c.position_world});
   for (const RobotQuery& q : queries) {
     std::vector<Disk> blocked;
     PlanResult plan = planner_.plan(grid, q.start_world, q.goal_world, blocked);

@@ -1,4 +1,5 @@
-// Deconflicter: two robots swapping ends of a corridor keep their separation over time; timing helpers.
+// Deconflicter: two robots swapping ends of a corridor keep their separation over time; a new path keeps
+// clear of one a robot is already following; timing helpers.
 
 #include <algorithm>
 #include <limits>
@@ -50,6 +51,52 @@ TEST(Deconflicter, RobotsSwappingThroughACorridorKeepApart) {
   for (const PlanResult& p : result.plans) {
     EXPECT_EQ(first_blocked_pose(grid, p.path_world, UnknownCells::kOccupied), -1);
   }
+}
+
+TEST(Deconflicter, ANewPathKeepsClearOfACommittedOne) {
+  // An open room 6 m square. Robot 1 is already driving along y = 3 from x = 0.5 to 5.5; robot 2 is
+  // planned from (3, 0.5) to (3, 5.5), straight across robot 1's path when robot 1 gets there.
+  const OccupancyGrid grid = test::make_grid(6.0, 6.0, [](const Eigen::Vector2d&) { return false; }, kRadius);
+  std::vector<Pose2d> driving;
+  for (double x = 0.5; x <= 5.5 + 1e-9; x += 0.25) driving.push_back(Pose2d{x, 3.0, 0.0});
+  const std::vector<CommittedPath> committed{{1, driving, Eigen::Vector2d(0.5, 3.0)}};
+  const std::vector<RobotQuery> queries{{2, Pose2d{3.0, 0.5, 1.57}, {3.0, 5.5}}};
+  DeconflictionConfig c;
+  c.separation_m = 2.0 * kRadius + 0.1;
+  PathPlannerConfig pc;
+  pc.seed = 5;
+
+  // Without the committed path the straight crossing meets robot 1.
+  const DeconflictionResult blind = Deconflicter(c, pc).plan(grid, queries);
+  ASSERT_TRUE(blind.plans[0].solved());
+  EXPECT_LT(min_separation_m(driving, blind.plans[0].path_world, c.speed_m_per_s), 2.0 * kRadius);
+
+  const DeconflictionResult result = Deconflicter(c, pc).plan(grid, queries, committed);
+  ASSERT_EQ(result.plans.size(), 1u);
+  ASSERT_TRUE(result.plans[0].solved());
+  EXPECT_TRUE(result.conflict_free());
+  EXPECT_GE(result.replans[0], 1);
+  EXPECT_GE(min_separation_m(driving, result.plans[0].path_world, c.speed_m_per_s), 2.0 * kRadius);
+  EXPECT_EQ(first_blocked_pose(grid, result.plans[0].path_world, UnknownCells::kOccupied), -1);
+}
+
+TEST(Deconflicter, AConflictWithACommittedPathNamesItsRobot) {
+  // The committed robot drives through the query robot's goal, which it cannot avoid: reported.
+  const OccupancyGrid grid = test::make_grid(6.0, 6.0, [](const Eigen::Vector2d&) { return false; }, kRadius);
+  std::vector<Pose2d> driving;
+  for (double x = 0.5; x <= 5.5 + 1e-9; x += 0.25) driving.push_back(Pose2d{x, 3.0, 0.0});
+  // A goal 1.5 m down robot 1's path: reached as robot 1 passes at nominal speed.
+  const std::vector<RobotQuery> queries{{7, Pose2d{2.0, 2.5, 0.0}, {2.0, 3.0}}};
+  DeconflictionConfig c;
+  c.separation_m = 2.0 * kRadius + 0.1;
+  c.max_replans = 2;
+  PathPlannerConfig pc;
+  pc.seed = 5;
+  const DeconflictionResult result =
+      Deconflicter(c, pc).plan(grid, queries, {{4, driving, Eigen::Vector2d(0.5, 3.0)}});
+  ASSERT_EQ(result.conflicts.size(), 1u);
+  EXPECT_EQ(result.conflicts[0].robot_a, 4);
+  EXPECT_EQ(result.conflicts[0].robot_b, 7);
 }
 
 TEST(Deconflicter, UnresolvableConflictIsReported) {

@@ -320,17 +320,27 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
                           std::vector<PathCommand>& commands) {
   // The robots that need a path are deconflicted among themselves (by priority); the others (standing,
   // or keeping a path that is still good, which a new plan would only make them turn away from) are
-  // obstacles where they are.
+  // obstacles where they are, and those keeping a path are also deconflicted against along the rest of
+  // it (committed, of higher priority), so that a new path does not cross theirs in time.
   planners::OccupancyGrid grid = planning_grid_;
   std::vector<planners::Disk> standing;
+  std::vector<planners::CommittedPath> committed;
   std::vector<std::size_t> order;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (needs_plan[r]) {
       order.push_back(r);
-    } else {
-      // Marked occupied, the disk is then inflated by the robot radius: centres stay separation_m apart.
-      standing.push_back({robots[r].pose_world.xy(),
-                          std::max(0.0, planning_.deconfliction.separation_m - planning_grid_.config().robot_radius_m)});
+      continue;
+    }
+    // Marked occupied, the disk is then inflated by the robot radius: centres stay separation_m apart.
+    const Eigen::Vector2d position = robots[r].pose_world.xy();
+    standing.push_back({position,
+                        std::max(0.0, planning_.deconfliction.separation_m - planning_grid_.config().robot_radius_m)});
+    const RobotMission& s = state_[r];
+    if (s.has_path && !s.path_world.empty()) {
+      std::vector<Pose2d> rest{robots[r].pose_world};
+      rest.insert(rest.end(), s.path_world.begin() + static_cast<std::ptrdiff_t>(nearest_pose(s.path_world, position)),
+                  s.path_world.end());
+      committed.push_back({static_cast<int>(r), std::move(rest), position});
     }
   }
   if (!standing.empty()) grid.block(standing);
@@ -357,7 +367,7 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
   }
   if (queries.empty()) return;
   const planners::Deconflicter deconflicter(planning_.deconfliction, planning_.path, logger_);
-  const planners::DeconflictionResult result = deconflicter.plan(grid, queries);
+  const planners::DeconflictionResult result = deconflicter.plan(grid, queries, committed);
   for (std::size_t q = 0; q < queried.size(); ++q) {
     const std::size_t r = queried[q];
     RobotMission& s = state_[r];

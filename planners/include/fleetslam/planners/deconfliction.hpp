@@ -2,7 +2,8 @@
 // Multi-robot deconfliction by priorities. Robots are planned in the order given (first = highest
 // priority). Each path is timed at a nominal speed along its xy length (turning in place takes no time;
 // before its start time a robot stands at its start, after its end at its last pose; a robot without a
-// path stands at its start throughout). A later robot's path conflicts with an earlier one when, at some
+// path stands at its start throughout); robots already following a path they keep (CommittedPath) come
+// first, timed from now. A later robot's path conflicts with an earlier one when, at some
 // time t (sampled every time_step_s), the two are closer than separation_m at times t and t' with
 // |t - t'| <= time_margin_s. On a conflict the later robot is replanned with the earlier robot's path
 // around the conflict (poses within +-block_window_s of it) blocked by disks of radius separation_m (disks
@@ -45,6 +46,14 @@ struct RobotQuery {
   Eigen::Vector2d goal_world = Eigen::Vector2d::Zero();
 };
 
+// A path a robot is already following and keeps: the rest of it, from where the robot is now. Robots
+// being planned keep clear of it as of a robot of higher priority, timed from now.
+struct CommittedPath {
+  int robot_id = 0;
+  std::vector<Pose2d> path_world;
+  Eigen::Vector2d position_world = Eigen::Vector2d::Zero();  // where it is now (and stays without a path)
+};
+
 struct Conflict {
   int robot_a = 0;  // higher priority
   int robot_b = 0;  // lower priority
@@ -66,7 +75,9 @@ class Deconflicter {
   using Config = DeconflictionConfig;
   Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger = core::null_logger());
 
-  DeconflictionResult plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries_by_priority) const;
+  // Committed paths come before every query in priority; a conflict with one names its robot as robot_a.
+  DeconflictionResult plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries_by_priority,
+                           const std::vector<CommittedPath>& committed = {}) const;
 
   const Config& config() const { return config_; }
 
