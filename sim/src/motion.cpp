@@ -255,15 +255,19 @@ PurePursuit::Command PurePursuit::update(const Eigen::Vector2d& p_xy, double yaw
   const Projection here = advance_progress(p_xy);
   const bool on_last_segment = progress_ + 2 >= path_.size();
   const double to_goal_m = (path_.back() - p_xy).norm();
-  // Done inside the tolerance once the robot can stop within one step (the acceleration limit holds).
-  if (on_last_segment && to_goal_m <= config_.goal_tolerance_m &&
+  const double path_left_m = cumulative_m_.back() - arc_length_m(here);
+  // Done inside the tolerance once the robot can stop within one step (the acceleration limit holds):
+  // on the last segment, or with no more path left than the tolerance (a last segment shorter than
+  // the tolerance may never become the nearest one).
+  if ((on_last_segment || path_left_m <= config_.goal_tolerance_m) && to_goal_m <= config_.goal_tolerance_m &&
       v_last_ <= config_.max_accel_mps2 * dt_s + 1e-12) {
     done_ = true;
     v_last_ = 0.0;
     return Command{};
   }
-  // Brake towards the middle of the goal tolerance, along the path until its last segment.
-  const double remaining_m = on_last_segment ? to_goal_m : cumulative_m_.back() - arc_length_m(here);
+  // Brake towards the middle of the goal tolerance, along the path until its last segment, and never
+  // from nearer than the goal itself (beside the path's end, less path than distance is left).
+  const double remaining_m = on_last_segment ? to_goal_m : std::max(path_left_m, to_goal_m);
   const double brake_m = remaining_m - 0.5 * config_.goal_tolerance_m;
   return steer(p_xy, yaw_rad, lookahead_point(here), stopping_speed_mps(brake_m, dt_s), dt_s);
 }

@@ -293,6 +293,30 @@ TEST(PurePursuit, APathEndingInAShortKinkIsFinished) {
   }
 }
 
+// A path ending in a segment shorter than the goal tolerance (a goal snapped to the nearest free cell):
+// a robot near the end of the segment before it, nearer to that one, has less path left than half the
+// tolerance. It must be done there (it stood still, never done, in a closed-loop run), and a robot
+// beside the end with the goal beyond the tolerance must still drive to it.
+TEST(PurePursuit, APathEndingInASegmentShorterThanTheToleranceIsFinished) {
+  const PurePursuitConfig config;
+  const std::vector<Eigen::Vector2d> path = {{1.9, 0.0}, {2.0, 0.0}, {1.975, 0.017}};
+  {
+    PurePursuit controller(config);
+    controller.set_path(path);
+    const DriveResult r = drive(controller, path, {1.99, 0.003}, 0.0, 5.0);
+    EXPECT_TRUE(r.done);
+    EXPECT_LE(r.final_goal_error_m, config.goal_tolerance_m);
+  }
+  {
+    PurePursuit controller(config);
+    const std::vector<Eigen::Vector2d> beside = {{1.9, 0.0}, {2.0, 0.0}, {1.985, 0.2}};
+    controller.set_path(beside);
+    const DriveResult r = drive(controller, beside, {1.99, 0.003}, 0.0, 10.0);
+    EXPECT_TRUE(r.done);
+    EXPECT_LE(r.final_goal_error_m, config.goal_tolerance_m);
+  }
+}
+
 TEST(PurePursuit, EmptyPathIsDoneWithAZeroCommand) {
   PurePursuit controller(PurePursuitConfig{});
   EXPECT_TRUE(controller.done());
