@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -355,6 +356,57 @@ core::SensorRig World::sensor_rig(std::size_t robot) const {
 }
 
 Eigen::Isometry3d World::T_body_cam(std::size_t robot) const { return impl_->robots.at(robot).T_body_cam; }
+
+BodyCylinder World::body_cylinder(std::size_t robot) const {
+  const mjModel* m = impl_->model.get();
+  const int body = impl_->robots.at(robot).body_id;
+  BodyCylinder out;
+  out.z_min_m = std::numeric_limits<double>::infinity();
+  out.z_max_m = -std::numeric_limits<double>::infinity();
+  const auto grow = [&out](const Eigen::Vector3d& centre_body, double radius_xy, double half_z) {
+    out.radius_m = std::max(out.radius_m, centre_body.head<2>().norm() + radius_xy);
+    out.z_min_m = std::min(out.z_min_m, centre_body.z() - half_z);
+    out.z_max_m = std::max(out.z_max_m, centre_body.z() + half_z);
+  };
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] != body) continue;
+    const Eigen::Vector3d pos(m->geom_pos[3 * g], m->geom_pos[3 * g + 1], m->geom_pos[3 * g + 2]);
+    const Eigen::Matrix3d R =
+        Eigen::Quaterniond(m->geom_quat[4 * g], m->geom_quat[4 * g + 1], m->geom_quat[4 * g + 2], m->geom_quat[4 * g + 3])
+            .normalized()
+            .toRotationMatrix();
+    const mjtNum* size = m->geom_size + 3 * g;
+    const bool upright = std::abs(R(2, 2)) > 1.0 - 1e-9;
+    Eigen::Vector3d half;  // the geom's box in its own frame
+    switch (m->geom_type[g]) {
+      case mjGEOM_SPHERE: grow(pos, size[0], size[0]); continue;
+      case mjGEOM_CYLINDER:
+        if (upright) {
+          grow(pos, size[0], size[1]);
+          continue;
+        }
+        half = Eigen::Vector3d(size[0], size[0], size[1]);
+        break;
+      case mjGEOM_CAPSULE:
+        if (upright) {
+          grow(pos, size[0], size[1] + size[0]);
+          continue;
+        }
+        half = Eigen::Vector3d(size[0], size[0], size[1] + size[0]);
+        break;
+      case mjGEOM_BOX:
+      case mjGEOM_ELLIPSOID: half = Eigen::Vector3d(size[0], size[1], size[2]); break;
+      default: half = Eigen::Vector3d::Constant(m->geom_rbound[g]); break;  // meshes and the rest: bounding sphere
+    }
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d c((corner & 1) ? half.x() : -half.x(), (corner & 2) ? half.y() : -half.y(),
+                              (corner & 4) ? half.z() : -half.z());
+      grow(pos + R * c, 0.0, 0.0);
+    }
+  }
+  if (out.z_min_m > out.z_max_m) out = BodyCylinder{};  // no geoms
+  return out;
+}
 
 RobotTruth World::truth(std::size_t robot) const {
   const RobotRuntime& r = impl_->robots.at(robot);

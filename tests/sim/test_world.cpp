@@ -361,6 +361,50 @@ TEST(World, DiffDriveRobotFollowsItsPathAndStopsAtWalls) {
   EXPECT_GT(contacts, 0);
 }
 
+TEST(World, BodyCylinderHoldsWhatAnotherCameraSeesOfTheRobot) {
+  const fs::path dir = write_scene("body", "    <geom type=\"plane\" size=\"30 30 0.1\" rgba=\"0.5 0.5 0.5 1\"/>\n");
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.seed = 3;
+  rover.initial_pose = PoseConfig{1.2, 0.1, 0, 0, 0, 30};
+  rover.camera.width = 32;
+  rover.camera.height = 24;
+  RobotConfig rig = still_rig("cam", PoseConfig{0, 0, 0.5, 0, 12, 0});  // looking down at the rover
+  rig.camera.width = 320;
+  rig.camera.height = 240;
+  World world(scenario_in(dir, {rig, rover}), nullptr);
+  const BodyCylinder rover_body = world.body_cylinder(1);
+  EXPECT_DOUBLE_EQ(rover_body.radius_m, rover.radius_m);  // the base is the widest part
+  EXPECT_GT(rover_body.z_min_m, 0.0);                      // it does not reach into the floor
+  EXPECT_GT(rover_body.z_max_m, 0.3);                      // the mast with the camera
+  const BodyCylinder rig_body = world.body_cylinder(0);
+  EXPECT_NEAR(rig_body.radius_m, std::hypot(0.04, 0.08), 1e-9);
+  EXPECT_NEAR(rig_body.z_max_m - rig_body.z_min_m, 0.06, 1e-9);
+
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 2u);
+  const core::PinholeCamera camera = world.sensor_rig(0).cam0;
+  const Eigen::Isometry3d T_body_cam = world.truth(1).T_world_body.inverse() * *frames[0].T_world_cam_gt;
+  int seen = 0;
+  double widest = 0.0;
+  for (int v = 0; v < camera.height(); ++v) {
+    for (int u = 0; u < camera.width(); ++u) {
+      const float depth = frames[0].depth_m.at<float>(v, u);
+      if (!(depth > 0.0f) || depth > 10.0f) continue;
+      const Eigen::Vector3d p_world = *frames[0].T_world_cam_gt * (*camera.unproject(Eigen::Vector2d(u, v)) * depth);
+      if (p_world.z() < 5e-3) continue;  // the floor
+      const Eigen::Vector3d p = T_body_cam * (*camera.unproject(Eigen::Vector2d(u, v)) * depth);
+      ++seen;
+      widest = std::max(widest, p.head<2>().norm());
+      ASSERT_LE(p.head<2>().norm(), rover_body.radius_m + 2e-3) << "pixel " << u << ", " << v;
+      ASSERT_GE(p.z(), rover_body.z_min_m - 2e-3);
+      ASSERT_LE(p.z(), rover_body.z_max_m + 2e-3);
+    }
+  }
+  EXPECT_GT(seen, 1000);
+  EXPECT_GT(widest, rover_body.radius_m - 0.01);  // the cylinder is tight
+}
+
 TEST(World, SurfacePointsLieOnTheSceneAndExcludeRobots) {
   const fs::path dir = write_scene(
       "surface", "    <geom type=\"box\" pos=\"1 2 0.5\" size=\"0.5 0.25 0.5\" rgba=\"1 1 1 1\"/>\n");

@@ -30,6 +30,15 @@ struct RobotTruth {
   int contacts_with_scene = 0;  // contacts between the robot's geoms and anything else right now
 };
 
+// The space a robot's body takes, as a cylinder about its body frame's z axis that holds all its geoms:
+// what other robots' cameras see of it (a central unit that knows where its robots are can tell them
+// apart from the scene).
+struct BodyCylinder {
+  double radius_m = 0.0;
+  double z_min_m = 0.0;  // along body z
+  double z_max_m = 0.0;
+};
+
 class World {
  public:
   // Loads the scene, inserts the robots and prepares rendering. Throws InputError naming the scenario or
@@ -55,6 +64,9 @@ class World {
   // Pose of the (left) camera's optical frame (OpenCV: x right, y down, z forward) in the body frame.
   Eigen::Isometry3d T_body_cam(std::size_t robot) const;
   RobotTruth truth(std::size_t robot) const;
+  // From the robot's geoms in the model (exact for spheres and upright cylinders, a geom's box corners
+  // otherwise).
+  BodyCylinder body_cylinder(std::size_t robot) const;
 
   // Diff-drive robots: replace the path their controller follows (world x/y; the scenario's waypoints
   // are the initial path). Throws std::invalid_argument for free rigs or a bad index.
