@@ -285,7 +285,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
                                         std::to_string(k) + ") for the robot's initial-pose prior");
       }
       first_index[r] = static_cast<std::int64_t>(k);
-      server.add_robot(central::RobotSpec{static_cast<int>(r), names[r], *frame->T_world_cam_gt});
+      server.add_robot(central::RobotSpec{static_cast<int>(r), names[r], *frame->T_world_cam_gt, {}});
     }
     frame->robot_id = static_cast<int>(r);
     frame->sequence = static_cast<std::int64_t>(k) - first_index[r];

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <set>
 #include <unordered_set>
 
@@ -11,6 +13,8 @@
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/se3.hpp"
+#include "fleetslam/core/time.hpp"
 
 namespace fleetslam::central {
 
@@ -129,6 +133,12 @@ void Server::add_robot(const RobotSpec& spec) {
   const std::string where = "robot " + std::to_string(spec.robot_id);
   if (robots_.count(spec.robot_id) > 0) throw InputError(where, "registered twice");
   if (!rigid(spec.T_world_robot)) throw InputError(where, "the prior T_world_robot is not a rigid transform");
+  const RobotBody& body = spec.body;
+  if (!(std::isfinite(body.radius_m) && body.radius_m >= 0.0)) throw InputError(where, "the body's radius is not a finite non-negative number");
+  if (body.radius_m > 0.0 && !(std::isfinite(body.z_min_m) && std::isfinite(body.z_max_m) && body.z_min_m <= body.z_max_m)) {
+    throw InputError(where, "the body's height range is not finite and ordered (z_min_m <= z_max_m)");
+  }
+  if (!rigid(body.T_cam_body)) throw InputError(where, "the body's pose in the camera (T_cam_body) is not a rigid transform");
   RobotState state;
   state.spec = spec;
   if (state.spec.name.empty()) state.spec.name = "robot" + std::to_string(spec.robot_id);
@@ -169,6 +179,7 @@ void Server::take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf) 
   entry.T_robot_cam = kf.T_world_cam;
   if (kf.dense_cam) {
     entry.dense_cam = *kf.dense_cam;
+    entry.on_teammate.clear();
     const std::size_t dropped = core::remove_non_finite(entry.dense_cam);
     if (dropped > 0) {
       robot.counters.nan_points += dropped;
@@ -239,7 +250,19 @@ core::PointCloud Server::robot_cloud(int robot_id, std::optional<int> component)
   for (const auto& entry : robot.keyframes) total += wanted(entry.second) ? entry.second.dense_cam.size() : 0;
   cloud.reserve(total);
   for (const auto& entry : robot.keyframes) {
-    if (wanted(entry.second)) cloud.append(core::transformed(entry.second.dense_cam, entry.second.T_robot_cam));
+    const ServerKeyframe& kf = entry.second;
+    if (!wanted(kf)) continue;
+    if (kf.on_teammate.size() != kf.dense_cam.size()) {
+      cloud.append(core::transformed(kf.dense_cam, kf.T_robot_cam));
+      continue;
+    }
+    core::PointCloud kept;
+    kept.reserve(kf.dense_cam.size(), kf.dense_cam.has_colors());
+    for (std::size_t i = 0; i < kf.dense_cam.size(); ++i) {
+      if (!kf.on_teammate[i]) kept.push_back_from(kf.dense_cam, i);
+    }
+    transform_in_place(kept, kf.T_robot_cam);
+    cloud.append(kept);
   }
   return cloud;
 }
@@ -322,6 +345,89 @@ std::optional<Eigen::Isometry3d> Server::last_placement(int robot_id, int compon
   return std::nullopt;
 }
 
+std::optional<Eigen::Isometry3d> Server::registered_placement(int robot_id, int component) const {
+  const RobotFusionReport* r = last_report(robot_id);
+  if (r == nullptr) return std::nullopt;
+  if (component == r->component) {
+    if (r->registered || r->merge_status == "reference") return r->T_world_robot;
+    return std::nullopt;
+  }
+  const ComponentPlacement* p = r->later_component(component);
+  if (p != nullptr && p->placed && p->registered) return p->T_world_component;
+  return std::nullopt;
+}
+
+void Server::mask_teammates() {
+  for (auto& [id, robot] : robots_) {
+    for (auto& entry : robot.keyframes) entry.second.on_teammate.clear();
+  }
+  if (!config_.mask_teammates) return;
+  // Each robot with a body: its body's pose in the world at every frame whose map component registration
+  // placed, in time order.
+  struct BodyTrack {
+    int robot_id = 0;
+    const RobotBody* body = nullptr;
+    std::vector<core::StampedPose> T_world_body;
+  };
+  std::vector<BodyTrack> tracks;
+  for (const auto& [id, robot] : robots_) {
+    if (!(robot.spec.body.radius_m > 0.0)) continue;
+    BodyTrack track{id, &robot.spec.body, {}};
+    std::map<int, std::optional<Eigen::Isometry3d>> placements;
+    for (const FrameEntry& f : robot.frames) {
+      auto placed = placements.find(f.component);
+      if (placed == placements.end()) placed = placements.emplace(f.component, registered_placement(id, f.component)).first;
+      const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, f.reference);
+      if (!placed->second || !T_robot_ref) continue;
+      track.T_world_body.push_back({f.t_ns, *placed->second * *T_robot_ref * f.T_ref_cam * robot.spec.body.T_cam_body});
+    }
+    std::stable_sort(track.T_world_body.begin(), track.T_world_body.end(),
+                     [](const core::StampedPose& a, const core::StampedPose& b) { return a.t_ns < b.t_ns; });
+    if (!track.T_world_body.empty()) tracks.push_back(std::move(track));
+  }
+  const core::TimeNs max_gap_ns = core::seconds_to_ns(config_.teammate_max_gap_s);
+  // The body's pose at t: interpolated between the frames around it, when they are close enough in time.
+  const auto body_at = [max_gap_ns](const BodyTrack& track, core::TimeNs t_ns) -> std::optional<Eigen::Isometry3d> {
+    const std::vector<core::StampedPose>& poses = track.T_world_body;
+    const auto after = std::lower_bound(poses.begin(), poses.end(), t_ns,
+                                        [](const core::StampedPose& p, core::TimeNs t) { return p.t_ns < t; });
+    if (after != poses.end() && after->t_ns == t_ns) return after->T_world_body;
+    if (after == poses.end() || after == poses.begin()) return std::nullopt;
+    const auto before = std::prev(after);
+    if (after->t_ns - before->t_ns > max_gap_ns) return std::nullopt;
+    const double s = static_cast<double>(t_ns - before->t_ns) / static_cast<double>(after->t_ns - before->t_ns);
+    return core::interpolate(before->T_world_body, after->T_world_body, s);
+  };
+  const double margin = config_.teammate_margin_m;
+  for (auto& [id, robot] : robots_) {
+    std::size_t masked = 0;
+    for (auto& entry : robot.keyframes) {
+      ServerKeyframe& kf = entry.second;
+      if (kf.dense_cam.empty()) continue;
+      const std::optional<Eigen::Isometry3d> T_world_robot = registered_placement(id, kf.component);
+      if (!T_world_robot) continue;
+      const Eigen::Isometry3d T_world_cam = *T_world_robot * kf.T_robot_cam;
+      for (const BodyTrack& track : tracks) {
+        if (track.robot_id == id) continue;
+        const std::optional<Eigen::Isometry3d> T_world_body = body_at(track, kf.t_ns);
+        if (!T_world_body) continue;
+        const Eigen::Isometry3f T_body_cam = (T_world_body->inverse() * T_world_cam).cast<float>();
+        const float radius = static_cast<float>(track.body->radius_m + margin);
+        const float z_min = static_cast<float>(track.body->z_min_m);  // not below: the floor it stands on stays
+        const float z_max = static_cast<float>(track.body->z_max_m + margin);
+        for (std::size_t i = 0; i < kf.dense_cam.size(); ++i) {
+          const Eigen::Vector3f p = T_body_cam * kf.dense_cam.points[i];
+          if (p.z() < z_min || p.z() > z_max || p.head<2>().squaredNorm() > radius * radius) continue;
+          if (kf.on_teammate.empty()) kf.on_teammate.assign(kf.dense_cam.size(), false);
+          masked += kf.on_teammate[i] ? 0 : 1;
+          kf.on_teammate[i] = true;
+        }
+      }
+    }
+    if (masked > 0) logger_->debug("{}: {} dense points on other robots left out", robot.spec.name, masked);
+  }
+}
+
 Eigen::Isometry3d Server::T_world_component(int robot_id, int component) const {
   const RobotState& robot = state(robot_id);
   const RobotFusionReport* r = last_report(robot_id);
@@ -343,6 +449,7 @@ core::PointCloud Server::world_cloud(int robot_id) const {
 }
 
 const ServerMergeReport& Server::merge() {
+  mask_teammates();
   ServerMergeReport report;
   std::vector<RobotCloud> inputs;
   for (const auto& [id, robot] : robots_) {
@@ -422,14 +529,18 @@ const ServerMergeReport& Server::merge() {
       }
       std::sort(ordered.begin(), ordered.end(), [](const ServerKeyframe* a, const ServerKeyframe* b) { return a->t_ns < b->t_ns; });
       for (std::size_t k = 0; k < ordered.size(); ++k) {
-        const core::PointCloud& cloud = ordered[k]->dense_cam;
-        if (cloud.empty()) continue;
-        const Eigen::Isometry3d T_world_cam = r.T_world_robot * ordered[k]->T_robot_cam;
+        const ServerKeyframe& kf = *ordered[k];
+        const bool masked = kf.on_teammate.size() == kf.dense_cam.size();
+        const Eigen::Isometry3f T_world_cam = (r.T_world_robot * kf.T_robot_cam).cast<float>();
         std::size_t near = 0;
-        for (const Eigen::Vector3f& p : cloud.points) {
-          near += near_others.near((T_world_cam.cast<float>() * p)) ? 1 : 0;
+        std::size_t scene = 0;  // points not on other robots
+        for (std::size_t i = 0; i < kf.dense_cam.size(); ++i) {
+          if (masked && kf.on_teammate[i]) continue;
+          ++scene;
+          near += near_others.near(T_world_cam * kf.dense_cam.points[i]) ? 1 : 0;
         }
-        if (static_cast<double>(near) >= config_.anchor_min_overlap_share * static_cast<double>(cloud.size())) {
+        if (scene == 0) continue;
+        if (static_cast<double>(near) >= config_.anchor_min_overlap_share * static_cast<double>(scene)) {
           r.anchors.push_back(k);
         }
       }
@@ -449,11 +560,15 @@ const ServerMergeReport& Server::merge() {
     std::stable_sort(r.fused.keyframes_world.begin(), r.fused.keyframes_world.end(), by_time);
     std::stable_sort(r.fused.frames_world.begin(), r.fused.frames_world.end(), by_time);
     r.points = 0;
-    for (const auto& entry : robot.keyframes) r.points += entry.second.dense_cam.size();
+    for (const auto& entry : robot.keyframes) {
+      const ServerKeyframe& kf = entry.second;
+      r.points += kf.dense_cam.size();
+      r.teammate_points += static_cast<std::size_t>(std::count(kf.on_teammate.begin(), kf.on_teammate.end(), true));
+    }
     std::size_t placed_later = 0;
     for (const ComponentPlacement& p : r.later_components) placed_later += p.placed ? 1 : 0;
-    logger_->info("{}: {} dense points, {} in the overlap, {} anchor keyframes{}{}", r.name, r.points, r.overlap_points,
-                  r.anchors.size(), r.registered ? "" : " (coarse placement by the prior)",
+    logger_->info("{}: {} dense points ({} on other robots left out), {} in the overlap, {} anchor keyframes{}{}", r.name,
+                  r.points, r.teammate_points, r.overlap_points, r.anchors.size(), r.registered ? "" : " (coarse placement by the prior)",
                   r.later_components.empty() ? std::string()
                                              : fmt::format("; later map components: {} of {} placed", placed_later,
                                                            r.later_components.size()));
@@ -479,7 +594,7 @@ void Server::write_outputs(const std::filesystem::path& dir) {
     core::write_trajectory(robot_dir / "trajectory_robot.txt", robot_trajectory(r.robot_id), core::TrajectoryFormat::kTum);
     const RobotCounters& c = counters(r.robot_id);
     robots.push_back({{"robot_id", r.robot_id}, {"name", r.name}, {"points", r.points},
-                      {"overlap_points", r.overlap_points}, {"registered", r.registered}, {"merge_status", r.merge_status},
+                      {"teammate_points", r.teammate_points}, {"overlap_points", r.overlap_points}, {"registered", r.registered}, {"merge_status", r.merge_status},
                       {"anchor_keyframes", r.anchors.size()}, {"prior_T_world_robot", pose_json(spec(r.robot_id).T_world_robot)},
                       {"T_world_robot", pose_json(r.T_world_robot)}, {"pose_graph_solved", r.fused.pose_graph_solved},
                       {"updates", c.updates}, {"rejected_updates", c.rejected}, {"tracked", c.tracked}, {"lost", c.lost},

@@ -13,6 +13,7 @@
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/se3.hpp"
+#include "fleetslam/core/time.hpp"
 
 namespace fleetslam::central {
 namespace {
@@ -123,8 +124,8 @@ double rotation_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
 TEST(Server, RefinesAWrongPriorAndFusesTheTrajectory) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", s.T_world_a});
-  server.add_robot({1, "b", s.prior_b});
+  server.add_robot({0, "a", s.T_world_a, {}});
+  server.add_robot({1, "b", s.prior_b, {}});
   s.feed(server);
   const ServerMergeReport& report = server.merge();
   ASSERT_EQ(report.robots.size(), 2u);
@@ -150,11 +151,11 @@ TEST(Server, RefinesAWrongPriorAndFusesTheTrajectory) {
 TEST(Server, BadUpdatesAreCountedNotFatal) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", s.T_world_a});
-  EXPECT_THROW(server.add_robot({0, "again", s.T_world_a}), InputError);
+  server.add_robot({0, "a", s.T_world_a, {}});
+  EXPECT_THROW(server.add_robot({0, "again", s.T_world_a, {}}), InputError);
   Eigen::Isometry3d sheared = Eigen::Isometry3d::Identity();
   sheared.linear()(0, 1) = 0.5;
-  EXPECT_THROW(server.add_robot({5, "sheared", sheared}), InputError);
+  EXPECT_THROW(server.add_robot({5, "sheared", sheared, {}}), InputError);
 
   EXPECT_EQ(server.integrate(update(7, 0, 1, Eigen::Isometry3d::Identity())), IntegrateStatus::kUnknownRobot);
   slam::AgentUpdate first = update(0, 3, 1'000, Eigen::Isometry3d::Identity());
@@ -191,7 +192,7 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
 TEST(Server, KeyframeCorrectionsAndRemovalMoveFramesAndClouds) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", Eigen::Isometry3d::Identity()});
+  server.add_robot({0, "a", Eigen::Isometry3d::Identity(), {}});
   slam::AgentUpdate u0 = update(0, 0, 1'000, Eigen::Isometry3d::Identity());
   u0.new_keyframes.push_back(keyframe(0, 1'000, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(), s.room, 0.0, 1.0));
   server.integrate(u0);
@@ -218,9 +219,9 @@ TEST(Server, KeyframeCorrectionsAndRemovalMoveFramesAndClouds) {
 TEST(Server, RobotThatNeverOverlapsKeepsItsPrior) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", s.T_world_a});
+  server.add_robot({0, "a", s.T_world_a, {}});
   const Eigen::Isometry3d far = pose({100.0, 0.0, 0.0}, 0.0);
-  server.add_robot({1, "far", far});
+  server.add_robot({1, "far", far, {}});
   s.feed(server);  // robot 1's clouds are placed 100 m away by its prior
   const ServerMergeReport& report = server.merge();
   const RobotFusionReport& r = report.robots[1];
@@ -237,7 +238,7 @@ TEST(Server, RobotThatNeverOverlapsKeepsItsPrior) {
 TEST(Server, LaterMapComponentsAreRegisteredAsSubmaps) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", s.T_world_a});
+  server.add_robot({0, "a", s.T_world_a, {}});
   Eigen::Isometry3d drift = pose({0.08, -0.09, 0.0}, 4.0 * M_PI / 180.0);  // agent frame of component 1 -> true agent frame
   drift = drift.inverse();
   const Eigen::Isometry3d far = pose({40.0, 0.0, 0.0}, 0.0);
@@ -302,11 +303,192 @@ TEST(Server, LaterMapComponentsAreRegisteredAsSubmaps) {
   EXPECT_TRUE(server.T_world_component(0, 7).isApprox(T_world_c1, 1e-6));
 }
 
+// The two robots of TwoRobots, merged once; then robot B drives on (frames only, 1 s apart, at y = 3.75)
+// while robot A's next keyframes also see it: points on B's body (a 0.2 m cylinder from 0.02 to 0.42 m
+// above the floor under B's camera) where B is at that time, in a colour no room point has (blue 255),
+// and decoys beside and above it that are scene (green 255). One more keyframe, at 6.5 s, sees B between
+// two of its frames (no decoys there: they would stand where B is at 6 and 7 s).
+struct Sightings {
+  static constexpr std::uint8_t kBody = 255;
+  RobotBody body_b;
+  std::size_t decoys = 0;
+  Sightings() {
+    body_b.T_cam_body.translation() = Eigen::Vector3d(0, 0, -1.0);  // B's camera 1 m above the floor
+    body_b.radius_m = 0.2;
+    body_b.z_min_m = 0.02;
+    body_b.z_max_m = 0.42;
+  }
+  // B's body origin: TwoRobots' path until 4 s, then on at y = 3.75.
+  static Eigen::Vector3d b_at(double t_s) {
+    return t_s <= 4.0 ? Eigen::Vector3d(5.5 - 0.8 * (t_s - 1.0), 3.5, 0.0) : Eigen::Vector3d(3.1 + 0.6 * (t_s - 4.0), 3.75, 0.0);
+  }
+  core::PointCloud around(const Eigen::Vector3d& b_world, bool with_decoys = true) {
+    core::PointCloud cloud;
+    for (int a = 0; a < 18; ++a) {
+      const double angle = a * M_PI / 9.0;
+      const Eigen::Vector3d dir(std::cos(angle), std::sin(angle), 0.0);
+      for (int level = 1; level <= 4; ++level) {
+        const double z = 0.1 * level;
+        cloud.push_back((b_world + 0.2 * dir + Eigen::Vector3d(0, 0, z)).cast<float>(), core::PointCloud::Rgb{0, 0, kBody});
+        if (!with_decoys) continue;
+        cloud.push_back((b_world + 0.35 * dir + Eigen::Vector3d(0, 0, z)).cast<float>(), core::PointCloud::Rgb{0, 255, 0});
+        ++decoys;
+      }
+      if (!with_decoys) continue;
+      cloud.push_back((b_world + 0.1 * dir + Eigen::Vector3d(0, 0, 0.6)).cast<float>(), core::PointCloud::Rgb{0, 255, 0});
+      ++decoys;
+    }
+    return cloud;
+  }
+  // Phase one, a merge, then phase two.
+  void feed(Server& server, const TwoRobots& s) {
+    s.feed(server);
+    server.merge();
+    InProcessLink link;
+    std::int64_t sequence_a = 4;
+    for (int k = 4; k < 8; ++k) {
+      const double t_s = k + 1.0;
+      const core::TimeNs t = static_cast<core::TimeNs>(t_s * 1e9);
+      const Eigen::Isometry3d T_world_cam_a = pose({0.5 + 0.8 * (k - 4), 0.5, 1.0}, 0.0);
+      slam::AgentUpdate ua = update(0, sequence_a++, t, s.T_world_a.inverse() * T_world_cam_a);
+      slam::KeyframeSnapshot kf = keyframe(k, t, s.T_world_a, T_world_cam_a, s.room, k - 4.0, k - 3.0);
+      kf.dense_cam->append(core::transformed(around(b_at(t_s)), T_world_cam_a.inverse()));
+      ua.new_keyframes.push_back(kf);
+      link.send(ua);
+      if (k == 6) {  // at 6.5 s, between B's frames at 6 and 7 s
+        const core::TimeNs t_mid = 6'500'000'000LL;
+        slam::AgentUpdate mid = update(0, sequence_a++, t_mid, s.T_world_a.inverse() * T_world_cam_a);
+        slam::KeyframeSnapshot seen = keyframe(10, t_mid, s.T_world_a, T_world_cam_a, core::PointCloud{}, 0.0, 0.0);
+        seen.dense_cam = core::transformed(around(b_at(6.5), false), T_world_cam_a.inverse());
+        mid.new_keyframes.push_back(seen);
+        link.send(mid);
+      }
+      const Eigen::Isometry3d T_world_cam_b = pose(b_at(t_s) + Eigen::Vector3d(0, 0, 1.0), 3.0);
+      link.send(update(1, k, t, s.T_world_b.inverse() * T_world_cam_b));
+    }
+    EXPECT_EQ(server.integrate_all(link), 9u);
+  }
+};
+
+std::size_t count_colour(const core::PointCloud& cloud, std::uint8_t green, std::uint8_t blue) {
+  std::size_t n = 0;
+  for (const core::PointCloud::Rgb& c : cloud.colors) n += c[1] == green && c[2] == blue ? 1 : 0;
+  return n;
+}
+
+// Checks every point of A's keyframes against B's true body where B was then: a masked point lies within
+// the body grown by the margin, a point well inside it is masked (give and take 2 cm sideways and 4 cm
+// in height for the registration's error: B's frames lie up to 3 m from the overlap, where a tenth of a
+// degree of tilt is half a centimetre).
+// Returns how many points were masked.
+std::size_t check_masks_against_the_truth(const Server& server, const TwoRobots& s, double margin_m, bool expect_mid) {
+  std::size_t masked = 0;
+  for (const ServerKeyframe& kf : server.robot_keyframe_clouds(0)) {
+    const bool mid = kf.t_ns == 6'500'000'000LL;
+    const Eigen::Vector3d b = Sightings::b_at(core::ns_to_seconds(kf.t_ns));
+    const Eigen::Isometry3d T_world_cam = s.T_world_a * kf.T_robot_cam;
+    for (std::size_t i = 0; i < kf.dense_cam.size(); ++i) {
+      const bool is_masked = !kf.on_teammate.empty() && kf.on_teammate[i];
+      const Eigen::Vector3d p = T_world_cam * kf.dense_cam.points[i].cast<double>() - b;
+      const double d = p.head<2>().norm();
+      if (is_masked) {
+        ++masked;
+        EXPECT_LE(d, 0.2 + margin_m + 0.02) << "t " << kf.t_ns;
+        EXPECT_GE(p.z(), 0.02 - 0.04);
+        EXPECT_LE(p.z(), 0.42 + margin_m + 0.04);
+      } else if (!mid || expect_mid) {
+        EXPECT_FALSE(d < 0.2 + margin_m - 0.02 && p.z() > 0.02 + 0.04 && p.z() < 0.42 + margin_m - 0.04)
+            << "a point inside the teammate kept: t " << kf.t_ns << " at " << d << " m, z " << p.z();
+      }
+    }
+  }
+  return masked;
+}
+
+TEST(Server, PointsOnOtherRobotsAreLeftOutOfTheMaps) {
+  const TwoRobots s;
+  Sightings seen;
+  ServerConfig config;
+  config.teammate_max_gap_s = 1.5;  // B's frames are 1 s apart: interpolate between them
+  Server server(config, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a, {}});
+  server.add_robot({1, "b", s.prior_b, seen.body_b});
+  seen.feed(server, s);
+  const std::size_t body_points = count_colour(server.robot_cloud(0), 0, Sightings::kBody);
+  EXPECT_EQ(body_points, 5u * 18u * 4u);
+  EXPECT_EQ(server.last_merge()->robots[0].teammate_points, 0u);
+  const ServerMergeReport& report = server.merge();
+  ASSERT_TRUE(report.robots[1].registered);
+  EXPECT_GE(report.robots[0].teammate_points, body_points);
+  EXPECT_EQ(report.robots[1].teammate_points, 0u) << "A has no body: nothing of B's cloud is on it";
+  EXPECT_EQ(count_colour(server.robot_cloud(0), 0, Sightings::kBody), 0u);
+  EXPECT_EQ(count_colour(server.world_cloud(0), 0, Sightings::kBody), 0u);
+  EXPECT_EQ(count_colour(server.robot_cloud(0), 255, 0), seen.decoys);
+  EXPECT_EQ(check_masks_against_the_truth(server, s, config.teammate_margin_m, true), report.robots[0].teammate_points);
+  // The merged map holds no point of B's body either (nothing within 15 cm of its axis, low down; at
+  // 6.5 s the decoys of 6 and 7 s stand there).
+  for (const Eigen::Vector3f& p : report.merge.cloud_world.points) {
+    for (double t_s : {5.0, 6.0, 7.0, 8.0}) {
+      const Eigen::Vector3d q = p.cast<double>() - Sightings::b_at(t_s);
+      ASSERT_FALSE(q.head<2>().norm() < 0.15 && q.z() > 0.06 && q.z() < 0.42) << "t " << t_s << ": " << p.transpose();
+    }
+  }
+}
+
+TEST(Server, TeammatesAreMaskedOnlyWhereTheyCanBe) {
+  const TwoRobots s;
+  // Default gap (0.2 s): the keyframe between B's frames is left as it is.
+  {
+    Sightings seen;
+    Server server(ServerConfig{}, core::null_logger());
+    server.add_robot({0, "a", s.T_world_a, {}});
+    server.add_robot({1, "b", s.prior_b, seen.body_b});
+    seen.feed(server, s);
+    server.merge();
+    EXPECT_EQ(count_colour(server.robot_cloud(0), 0, Sightings::kBody), 18u * 4u);
+    check_masks_against_the_truth(server, s, 0.05, false);
+  }
+  // Switched off; a robot with no body; a robot that never overlaps (placed only by its prior).
+  for (int variant = 0; variant < 3; ++variant) {
+    Sightings seen;
+    ServerConfig config;
+    config.mask_teammates = variant != 0;
+    RobotBody body = seen.body_b;
+    if (variant == 1) body.radius_m = 0.0;
+    Server server(config, core::null_logger());
+    server.add_robot({0, "a", s.T_world_a, {}});
+    server.add_robot({1, "b", variant == 2 ? pose({100.0, 0.0, 0.0}, 0.0) : s.prior_b, body});
+    seen.feed(server, s);
+    const ServerMergeReport& report = server.merge();
+    EXPECT_EQ(report.robots[1].registered, variant != 2);
+    EXPECT_EQ(report.robots[0].teammate_points, 0u) << "variant " << variant;
+    EXPECT_EQ(count_colour(server.robot_cloud(0), 0, Sightings::kBody), 5u * 18u * 4u) << "variant " << variant;
+  }
+}
+
+TEST(Server, RejectsABodyItCannotUse) {
+  Server server(ServerConfig{}, core::null_logger());
+  RobotBody body;
+  body.radius_m = -0.1;
+  EXPECT_THROW(server.add_robot({0, "negative", Eigen::Isometry3d::Identity(), body}), InputError);
+  body.radius_m = NAN;
+  EXPECT_THROW(server.add_robot({1, "nan", Eigen::Isometry3d::Identity(), body}), InputError);
+  body.radius_m = 0.2;
+  body.z_min_m = 0.5;
+  body.z_max_m = 0.1;
+  EXPECT_THROW(server.add_robot({2, "upside down", Eigen::Isometry3d::Identity(), body}), InputError);
+  body.z_min_m = 0.0;
+  body.T_cam_body.linear()(0, 1) = 0.5;
+  EXPECT_THROW(server.add_robot({3, "sheared", Eigen::Isometry3d::Identity(), body}), InputError);
+  body.T_cam_body = Eigen::Isometry3d::Identity();
+  EXPECT_NO_THROW(server.add_robot({4, "good", Eigen::Isometry3d::Identity(), body}));
+}
+
 TEST(Server, WritesItsOutputs) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());
-  server.add_robot({0, "a", s.T_world_a});
-  server.add_robot({1, "b", s.prior_b});
+  server.add_robot({0, "a", s.T_world_a, {}});
+  server.add_robot({1, "b", s.prior_b, {}});
   s.feed(server);
   const fs::path dir = fs::path(FLEETSLAM_BINARY_DIR) / "test_output" / "central_server";
   fs::remove_all(dir);

@@ -54,7 +54,7 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
                                                               " has no ground-truth pose for robot " + part.name +
                                                               "'s initial-pose prior");
         }
-        server.add_robot(central::RobotSpec{static_cast<int>(r), part.name, *frame->T_world_cam_gt});
+        server.add_robot(central::RobotSpec{static_cast<int>(r), part.name, *frame->T_world_cam_gt, {}});
         first_t = frame->t_ns;
       }
       last_t = frame->t_ns;

@@ -275,7 +275,9 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         robot.T_world_robot_true = *frame.T_world_cam_gt;
         robot.T_world_robot_prior =
             frame.robot_id == 0 ? *frame.T_world_cam_gt : perturbed_prior(*frame.T_world_cam_gt, options_.prior_error);
-        server.add_robot(central::RobotSpec{frame.robot_id, robot.name, robot.T_world_robot_prior});
+        const sim::BodyCylinder body = world.body_cylinder(static_cast<std::size_t>(frame.robot_id));
+        server.add_robot(central::RobotSpec{frame.robot_id, robot.name, robot.T_world_robot_prior,
+                                            central::RobotBody{robot.T_body_cam.inverse(), body.radius_m, body.z_min_m, body.z_max_m}});
       }
       if (frame.T_world_cam_gt) robot.groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
       const double t_s = core::ns_to_seconds(frame.t_ns);

@@ -52,6 +52,15 @@ struct ServerConfig {
   // dense points lies within anchor_radius_m of another robot's map (both placed by the merge).
   double anchor_min_overlap_share = 0.2;
   double anchor_radius_m = 0.05;
+  // Teammates are no map: each keyframe's points that lie in another robot's body where that robot was at
+  // the keyframe's time (its body cylinder grown by teammate_margin_m, the estimates' error, sideways and
+  // upwards; not below it, where the floor is) are left out of the maps. Both robots must be placed by
+  // fine registration (or be the reference): priors say too little of where one robot stands in the
+  // other's map. The placements are the last merge's (the first merge masks nothing). The other robot's
+  // pose is interpolated between its frames no more than teammate_max_gap_s apart.
+  bool mask_teammates = true;
+  double teammate_margin_m = 0.05;
+  double teammate_max_gap_s = 0.2;
 
   template <class V>
   void visit(V& v) {
@@ -59,15 +68,29 @@ struct ServerConfig {
     v("fusion", fusion);
     v("anchor_min_overlap_share", anchor_min_overlap_share, core::Limits<double>{0.0, 1.0});
     v("anchor_radius_m", anchor_radius_m, core::Limits<double>{1e-4, 10.0});
+    v("mask_teammates", mask_teammates);
+    v("teammate_margin_m", teammate_margin_m, core::Limits<double>{0.0, 10.0});
+    v("teammate_max_gap_s", teammate_max_gap_s, core::Limits<double>{0.0, 100.0});
   }
 };
 
+// The space a robot's body takes, for telling it apart from the scene in other robots' clouds: a
+// cylinder about the body frame's z axis. radius_m 0: unknown (never masked).
+struct RobotBody {
+  Eigen::Isometry3d T_cam_body = Eigen::Isometry3d::Identity();  // the body frame in the camera's
+  double radius_m = 0.0;
+  double z_min_m = 0.0;  // along body z
+  double z_max_m = 0.0;
+};
+
 // A robot as the server knows it before any update: its id (AgentUpdate::robot_id), a name for files
-// and logs, and the prior T_world_robot: the pose of the robot's frame (its first camera) in the world.
+// and logs, the prior T_world_robot: the pose of the robot's frame (its first camera) in the world, and
+// its body.
 struct RobotSpec {
   int robot_id = 0;
   std::string name;
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();
+  RobotBody body;
 };
 
 enum class IntegrateStatus { kAccepted, kUnknownRobot, kOutOfOrder, kInvalid };
@@ -86,7 +109,8 @@ struct ServerKeyframe {
   core::TimeNs t_ns = 0;
   int component = 0;  // the agent's map component
   Eigen::Isometry3d T_robot_cam = Eigen::Isometry3d::Identity();
-  core::PointCloud dense_cam;
+  core::PointCloud dense_cam;        // as the agent sent it
+  std::vector<bool> on_teammate;     // per point of dense_cam, by the last merge (empty: none)
 };
 
 // A later map component of a robot (see the file comment) after a merge.
@@ -104,6 +128,7 @@ struct RobotFusionReport {
   int robot_id = 0;
   std::string name;
   std::size_t points = 0;          // dense points in the robot's map
+  std::size_t teammate_points = 0; // of them, left out as points on other robots
   std::size_t overlap_points = 0;  // in the overlap with the map it was registered against
   bool registered = false;         // fine registration refined its prior
   std::string merge_status;        // the merger's word on it ("reference", "fine matched", "no overlap: prior kept", ...)
@@ -147,8 +172,8 @@ class Server {
   std::vector<int> robot_ids() const;
   const RobotSpec& spec(int robot_id) const;
   const RobotCounters& counters(int robot_id) const;
-  // The robot's dense map in its own frame (each keyframe's cloud moved by its latest pose); with a
-  // component, that component's part only.
+  // The robot's dense map in its own frame (each keyframe's cloud moved by its latest pose, its points
+  // on other robots left out); with a component, that component's part only.
   core::PointCloud robot_cloud(int robot_id, std::optional<int> component = std::nullopt) const;
   // Every accepted tracked frame in the robot's frame, following its keyframes' latest poses.
   core::Trajectory robot_trajectory(int robot_id, std::optional<int> component = std::nullopt) const;
@@ -158,8 +183,8 @@ class Server {
   core::PointCloud world_cloud(int robot_id) const;
   // Where the robot's map component lies in the world as the last merge has it (before: the prior).
   Eigen::Isometry3d T_world_component(int robot_id, int component) const;
-  // The same keyframes with their dense clouds (camera frame): where each cloud was seen from, for
-  // free-space carving.
+  // The same keyframes with their dense clouds (camera frame, as sent, with the points on other robots
+  // marked): where each cloud was seen from, for free-space carving.
   std::vector<ServerKeyframe> robot_keyframe_clouds(int robot_id) const;
   // After merge(): the robot's frames in the world frame (before: placed by the prior).
   core::Trajectory world_trajectory(int robot_id) const;
@@ -195,6 +220,11 @@ class Server {
   std::optional<Eigen::Isometry3d> keyframe_pose(const RobotState& robot, slam::KeyframeId id) const;
   // The component's transform in the last merge (nullopt: no merge yet, or the component was not in it).
   std::optional<Eigen::Isometry3d> last_placement(int robot_id, int component) const;
+  // The same, only where fine registration placed it (or it is the reference).
+  std::optional<Eigen::Isometry3d> registered_placement(int robot_id, int component) const;
+  // Marks each keyframe's points on other robots (ServerConfig::mask_teammates), by the last merge's
+  // placements.
+  void mask_teammates();
   const RobotFusionReport* last_report(int robot_id) const;  // nullptr before the first merge
   static std::set<int> components(const RobotState& robot);  // of the keyframes held
 
