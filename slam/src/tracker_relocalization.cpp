@@ -2,6 +2,7 @@
 // guided search by projection.
 
 #include <algorithm>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -34,17 +35,23 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
     w.clear_matches();
     const int inliers = relocalize_with(w, *kf, bow.features, map, result);
     if (inliers >= c.min_inliers && c.check_jump && last_T_world_cam_ && w.frame.T_world_cam) {
-      // The jump from the last estimate against what the camera could have moved while lost.
+      // The jump from the last estimate against what the camera could have moved while lost; with the
+      // gyro, the rotation against the gyro's prediction for this frame.
       const double lost_s = std::max(0.0, core::ns_to_seconds(w.frame.t_ns - lost_since_ns_));
+      const std::optional<Eigen::Isometry3d> T_cw_gyro =
+          gyro_prediction_valid() ? predicted_pose(map, w.frame.t_ns) : std::nullopt;
       const Eigen::Isometry3d delta = last_T_world_cam_->inverse() * *w.frame.T_world_cam;
       const double shift_m = delta.translation().norm();
-      const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 57.29577951308232;
+      const Eigen::Matrix3d turn = T_cw_gyro ? Eigen::Matrix3d(T_cw_gyro->linear() * w.frame.T_world_cam->linear())
+                                             : Eigen::Matrix3d(delta.linear());
+      const double turn_deg = Eigen::AngleAxisd(turn).angle() * 57.29577951308232;
       const double bound_m = c.max_jump_floor_m + c.max_jump_m_per_s * lost_s;
-      const double bound_deg = c.max_jump_floor_deg + c.max_jump_deg_per_s * lost_s;
+      const double bound_deg = T_cw_gyro ? c.max_jump_gyro_floor_deg + c.max_jump_gyro_deg_per_s * lost_s
+                                         : c.max_jump_floor_deg + c.max_jump_deg_per_s * lost_s;
       if (shift_m > bound_m || turn_deg > bound_deg) {
         ++implausible;
-        refused = fmt::format("keyframe {} would move the camera {:.2f} m / {:.1f} deg after {:.2f} s lost (bound {:.2f} m / {:.1f} deg)",
-                              kf->id, shift_m, turn_deg, lost_s, bound_m, bound_deg);
+        refused = fmt::format("keyframe {} would move the camera {:.2f} m / {:.1f} deg{} after {:.2f} s lost (bound {:.2f} m / {:.1f} deg)",
+                              kf->id, shift_m, turn_deg, T_cw_gyro ? " from the gyro's rotation" : "", lost_s, bound_m, bound_deg);
         logger_->debug("t={} relocalisation refused: {}", core::format_seconds(w.frame.t_ns, 6), refused);
         continue;
       }

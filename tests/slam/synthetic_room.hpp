@@ -176,4 +176,33 @@ inline core::SensorFrame synthetic_frame(const SyntheticRoom& room, const core::
   return f;
 }
 
+// The frames with the gyro samples an IMU at the camera (T_body_cam0 identity) would give at 200 Hz along
+// synthetic_pose, each the exact mean rate over its 5 ms, plus `bias_radps`.
+inline std::vector<core::SensorFrame> with_gyro(const std::vector<core::SensorFrame>& frames,
+                                                const Eigen::Vector3d& bias_radps = Eigen::Vector3d::Zero()) {
+  std::vector<core::SensorFrame> out = frames;
+  constexpr core::TimeNs kPeriodNs = 5'000'000;
+  for (std::size_t i = 1; i < out.size(); ++i) {
+    for (core::TimeNs t = out[i - 1].t_ns + kPeriodNs; t <= out[i].t_ns; t += kPeriodNs) {
+      const double t0 = core::ns_to_seconds(t - kPeriodNs - core::kNsPerSecond);
+      const double t1 = core::ns_to_seconds(t - core::kNsPerSecond);
+      const Eigen::Matrix3d dR = synthetic_pose(t0).linear().transpose() * synthetic_pose(t1).linear();
+      core::ImuSample sample;
+      sample.t_ns = t;
+      sample.gyro_radps = core::so3_log(dR) / (t1 - t0) + bias_radps;
+      sample.accel_mps2 = Eigen::Vector3d(0.0, 0.0, 9.81);
+      out[i].imu.push_back(sample);
+    }
+  }
+  return out;
+}
+
+// The RGB-D rig with that IMU.
+inline core::SensorRig synthetic_gyro_rig() {
+  core::SensorRig rig = synthetic_rgbd_rig();
+  rig.T_body_cam0 = Eigen::Isometry3d::Identity();
+  rig.imu = core::ImuNoise{};
+  return rig;
+}
+
 }  // namespace fleetslam::slam::test

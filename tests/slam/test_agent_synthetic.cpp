@@ -221,42 +221,15 @@ TEST(AgentSynthetic, WithoutRelocalizationALongLossStartsANewComponent) {
   EXPECT_EQ(agent.map_stats().components, 2);
 }
 
-// The frames with the gyro samples an IMU at the camera (T_body_cam0 identity) would give at 200 Hz, each
-// the exact mean rate over its 5 ms, plus `bias_radps`.
-std::vector<core::SensorFrame> with_gyro(const std::vector<core::SensorFrame>& frames, const Eigen::Vector3d& bias_radps) {
-  std::vector<core::SensorFrame> out = frames;
-  constexpr core::TimeNs kPeriodNs = 5'000'000;
-  for (std::size_t i = 1; i < out.size(); ++i) {
-    for (core::TimeNs t = out[i - 1].t_ns + kPeriodNs; t <= out[i].t_ns; t += kPeriodNs) {
-      const double t0 = core::ns_to_seconds(t - kPeriodNs - core::kNsPerSecond);
-      const double t1 = core::ns_to_seconds(t - core::kNsPerSecond);
-      const Eigen::Matrix3d dR = test::synthetic_pose(t0).linear().transpose() * test::synthetic_pose(t1).linear();
-      core::ImuSample sample;
-      sample.t_ns = t;
-      sample.gyro_radps = core::so3_log(dR) / (t1 - t0) + bias_radps;
-      sample.accel_mps2 = Eigen::Vector3d(0.0, 0.0, 9.81);
-      out[i].imu.push_back(sample);
-    }
-  }
-  return out;
-}
-
-core::SensorRig gyro_rig() {
-  core::SensorRig rig = test::synthetic_rgbd_rig();
-  rig.T_body_cam0 = Eigen::Isometry3d::Identity();
-  rig.imu = core::ImuNoise{};
-  return rig;
-}
-
 // Half a second of blank frames while the camera keeps turning: the gyro-predicted pose finds the last
 // local map again in the same component, where without a gyro a new component starts (test above).
 TEST(AgentSynthetic, WithAGyroABlankStretchIsBridgedInTheSameComponent) {
   for (const double bias : {0.0, 0.03}) {
     SCOPED_TRACE(bias);
-    const std::vector<core::SensorFrame> frames = with_gyro(sequence(core::SensorMode::kRgbd), Eigen::Vector3d(bias, -bias, bias));
+    const std::vector<core::SensorFrame> frames = test::with_gyro(sequence(core::SensorMode::kRgbd), Eigen::Vector3d(bias, -bias, bias));
     AgentConfig config;
     config.tracking.relocalization.enabled = false;
-    Agent agent(config, gyro_rig(), core::null_logger());
+    Agent agent(config, test::synthetic_gyro_rig(), core::null_logger());
     for (std::size_t i = 0; i < 20; ++i) ASSERT_TRUE(agent.process(frames[i]).has_pose()) << i;
     for (std::size_t i = 20; i < 35; ++i) {
       EXPECT_EQ(agent.process(with_image(frames[i], cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)))).status,

@@ -120,6 +120,50 @@ TEST(Relocalization, APoseOutOfReachIsRefused) {
   ASSERT_TRUE(back.first.has_value()) << back.second;
 }
 
+// The same kidnap with a gyroscope that keeps measuring the camera's true rotation, and bounds too loose
+// to refuse it otherwise (1 m, 90 degrees): the start's pose is turned 25 degrees from what the gyro
+// says and is refused; without the gyro it is taken; a camera that comes back where it was is found.
+TEST(Relocalization, WithAGyroAPoseTurnedAwayFromItsRotationIsRefused) {
+  const test::SyntheticRoom room = test::default_room();
+  const std::vector<core::SensorFrame> frames = test::with_gyro(blackout_sequence());
+  const auto run = [&](bool gyro, bool kidnapped) {
+    AgentConfig config;
+    RelocalizationConfig& reloc = config.tracking.relocalization;
+    reloc.max_jump_floor_m = 1.0;
+    reloc.max_jump_floor_deg = 90.0;
+    const core::SensorRig rig = gyro ? test::synthetic_gyro_rig() : test::synthetic_rgbd_rig();
+    Agent agent(config, rig, core::null_logger());
+    const auto fed = [&](core::SensorFrame f) {
+      if (!gyro) f.imu.clear();
+      return agent.process(f);
+    };
+    for (int i = 0; i < kBefore; ++i) fed(frames[static_cast<std::size_t>(i)]);
+    for (int i = kBefore; i < kBefore + 6; ++i) EXPECT_FALSE(fed(frames[static_cast<std::size_t>(i)]).has_pose());
+    std::optional<AgentUpdate> found;
+    std::string reasons;
+    for (int k = 0; k < 10 && !found; ++k) {
+      const core::SensorFrame& slot = frames[static_cast<std::size_t>(kBefore + 6 + k)];
+      core::SensorFrame f = test::synthetic_frame(room, rig, kidnapped ? k : kBefore + 6 + k);
+      f.t_ns = slot.t_ns;
+      f.sequence = slot.sequence;
+      f.imu = slot.imu;  // what the gyro measured: the camera went on turning as before
+      const AgentUpdate u = fed(f);
+      reasons += u.reason + "\n";
+      if (u.has_pose()) found = u;
+    }
+    return std::make_pair(found, reasons);
+  };
+  const auto without_gyro = run(false, true);
+  ASSERT_TRUE(without_gyro.first.has_value()) << without_gyro.second;
+  EXPECT_TRUE(without_gyro.first->relocalized);
+  const auto refused = run(true, true);
+  EXPECT_FALSE(refused.first.has_value()) << refused.second;
+  EXPECT_NE(refused.second.find("from the gyro's rotation"), std::string::npos) << refused.second;
+  const auto back = run(true, false);
+  ASSERT_TRUE(back.first.has_value()) << back.second;
+  EXPECT_LT((back.first->T_world_cam->translation() - frames[static_cast<std::size_t>(back.first->sequence)].T_world_cam_gt->translation()).norm(), 0.05);
+}
+
 TEST(Relocalization, DeterministicModeRepeatsBitForBit) {
   const auto run = [] {
     Agent agent(AgentConfig{}, test::synthetic_rgbd_rig(), core::null_logger());

@@ -62,11 +62,16 @@ struct RelocalizationConfig {
   // its centre within max_jump_floor_m + max_jump_m_per_s * lost_s and its rotation within
   // max_jump_floor_deg + max_jump_deg_per_s * lost_s. A wall papered like another elsewhere in the map
   // gives a confident pose in the wrong room; after a long loss anything goes. check_jump false: off.
+  // With a gyroscope the rotation through the loss is known (the gyro's prediction from the last tracked
+  // frame, bias removed): the relocalised rotation must then lie within max_jump_gyro_floor_deg +
+  // max_jump_gyro_deg_per_s * lost_s of that prediction instead.
   bool check_jump = true;
   double max_jump_floor_m = 0.3;
   double max_jump_m_per_s = 1.0;
   double max_jump_floor_deg = 20.0;
   double max_jump_deg_per_s = 60.0;
+  double max_jump_gyro_floor_deg = 5.0;
+  double max_jump_gyro_deg_per_s = 2.0;
   BowMatchConfig matching;
 
   template <class V>
@@ -85,6 +90,8 @@ struct RelocalizationConfig {
     v("max_jump_m_per_s", max_jump_m_per_s, core::Limits<double>{0.0, 1e6});
     v("max_jump_floor_deg", max_jump_floor_deg, core::Limits<double>{0.0, 360.0});
     v("max_jump_deg_per_s", max_jump_deg_per_s, core::Limits<double>{0.0, 1e6});
+    v("max_jump_gyro_floor_deg", max_jump_gyro_floor_deg, core::Limits<double>{0.0, 360.0});
+    v("max_jump_gyro_deg_per_s", max_jump_gyro_deg_per_s, core::Limits<double>{0.0, 1e6});
     v("matching", matching);
   }
 };
