@@ -6,7 +6,6 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -88,16 +87,21 @@ std::vector<std::uint64_t> row_band_seeds(std::uint64_t image_seed, int per_band
 }
 
 // body(band, first_row, end_row) for each non-empty band of rows [first_row, end_row) of an image
-// `height` rows high, in parallel.
+// `height` rows high, in parallel (or, with parallel false, one after the other on the calling thread).
 template <class Body>
-void for_each_row_band(int height, const Body& body) {
+void for_each_row_band(int height, const Body& body, bool parallel = true) {
   const int rows_per_band = (height + kRowBands - 1) / kRowBands;
   const int bands = rows_per_band > 0 ? (height + rows_per_band - 1) / rows_per_band : 0;
-  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+  const auto run = [&](const cv::Range& range) {
     for (int b = range.start; b < range.end; ++b) {
       body(b, b * rows_per_band, std::min(height, (b + 1) * rows_per_band));
     }
-  });
+  };
+  if (parallel) {
+    cv::parallel_for_(cv::Range(0, bands), run);
+  } else {
+    run(cv::Range(0, bands));
+  }
 }
 
 // High and low halves of the 128-bit product, xor-ed.
@@ -257,27 +261,6 @@ FLEETSLAM_ROW_KERNEL void gather_row(const float* __restrict table, const std::u
 #pragma GCC unroll 8
 #endif
   for (std::size_t i = 0; i < n; ++i) out[i] = table[index[i]];
-}
-
-// Runs [start, end) of ones in keep (bytes 0 or 1), eight bytes at a time inside long runs and gaps.
-void kept_runs(const std::uint8_t* keep, std::size_t w, std::vector<std::pair<std::size_t, std::size_t>>* runs) {
-  constexpr std::uint64_t kAllKept = 0x0101010101010101ULL;
-  const auto word = [keep](std::size_t u) {
-    std::uint64_t bytes;
-    std::memcpy(&bytes, keep + u, sizeof bytes);
-    return bytes;
-  };
-  runs->clear();
-  std::size_t u = 0;
-  while (u < w) {
-    while (u + 8 <= w && word(u) == 0) u += 8;
-    while (u < w && keep[u] == 0) ++u;
-    if (u == w) break;
-    const std::size_t start = u;
-    while (u + 8 <= w && word(u) == kAllKept) u += 8;
-    while (u < w && keep[u] != 0) ++u;
-    runs->emplace_back(start, u);
-  }
 }
 
 // The rows around row v for the grazing test: sanitised depth (padded, see sanitize_row) of rows
@@ -511,6 +494,12 @@ void add_noise_row(const std::uint8_t* in, const float* base, const float* noise
   }
 }
 
+void check_image_type(const cv::Mat& image) {
+  if (image.type() != CV_8UC1 && image.type() != CV_8UC3) {
+    throw std::invalid_argument("ImageNoiseModel::apply: image must be CV_8UC1 or CV_8UC3");
+  }
+}
+
 void check_image_matches_camera(const cv::Mat& depth_m, const core::PinholeCamera& camera) {
   if (depth_m.type() != CV_32FC1) {
     throw std::invalid_argument("DepthNoiseModel::apply: depth must be CV_32FC1 metres");
@@ -538,9 +527,47 @@ double DepthNoiseModel::axial_sigma_m(double depth_m) const {
   return config_.sigma_base_m + config_.sigma_quadratic * d * d;
 }
 
+DepthNoiseDraw DepthNoiseModel::next() {
+  DepthNoiseDraw draw;
+  if (!config_.enabled) return draw;
+  draw.enabled = true;
+  draw.seed = rng_();
+  return draw;
+}
+
+// Draws: the image's seed, expanded into two streams per row band (see for_each_row_band): Gaussian
+// table indices, one per pixel row-major (expand: they do not depend on the image), and uniforms, one
+// for each in-range band pixel not dropped at grazing incidence, row-major (none when the probability
+// is 1).
+DepthNoiseField DepthNoiseModel::expand(const DepthNoiseDraw& draw, cv::Size size, bool parallel) const {
+  DepthNoiseField field;
+  field.draw = draw;
+  if (!draw.enabled) return field;
+  const std::vector<std::uint64_t> seeds = row_band_seeds(draw.seed, 2);
+  const float* table = unit_normal_table().data();
+  const auto width = static_cast<std::size_t>(size.width);
+  field.noise.create(size, CV_32FC1);
+  for_each_row_band(size.height, [&](int band, int first_row, int end_row) {
+    NormalIndexStream indices(seeds[2 * static_cast<std::size_t>(band)], width);
+    for (int v = first_row; v < end_row; ++v) gather_row(table, indices.take(width), width, field.noise.ptr<float>(v));
+  }, parallel);
+  return field;
+}
+
 cv::Mat DepthNoiseModel::apply(const cv::Mat& depth_m, const core::PinholeCamera& camera) {
   check_image_matches_camera(depth_m, camera);
-  if (!config_.enabled) return depth_m.clone();
+  return apply(depth_m, camera, expand(next(), depth_m.size()));
+}
+
+cv::Mat DepthNoiseModel::apply(const cv::Mat& depth_m, const core::PinholeCamera& camera,
+                               const DepthNoiseField& field) const {
+  check_image_matches_camera(depth_m, camera);
+  if (!config_.enabled || !field.draw.enabled) return depth_m.clone();
+  if (field.noise.type() != CV_32FC1 || field.noise.size() != depth_m.size()) {
+    throw std::invalid_argument("DepthNoiseModel::apply: the noise field is " + std::to_string(field.noise.cols) +
+                                "x" + std::to_string(field.noise.rows) + " but the depth image " +
+                                std::to_string(depth_m.cols) + "x" + std::to_string(depth_m.rows));
+  }
 
   const double p_edge = config_.edge_dropout_probability;
   const bool edge_dropout = p_edge > 0.0;
@@ -554,25 +581,18 @@ cv::Mat DepthNoiseModel::apply(const cv::Mat& depth_m, const core::PinholeCamera
   const auto width = static_cast<std::size_t>(depth_m.cols);
   const int height = depth_m.rows;
 
-  // Draws: one seed from the model's generator per image, expanded into two streams per row band
-  // (see for_each_row_band): Gaussian table indices (one for each kept pixel, row-major) and uniforms
-  // (one for each in-range band pixel not dropped at grazing incidence, row-major; none when the
-  // probability is 1).
-  const std::vector<std::uint64_t> seeds = row_band_seeds(rng_(), 2);
+  // The uniforms' streams (see expand).
+  const std::vector<std::uint64_t> seeds = row_band_seeds(field.draw.seed, 2);
   const auto drop_below = static_cast<std::uint64_t>(std::ceil(p_edge * 0x1.0p53));
-  const float* table = unit_normal_table().data();
   const auto jump_m = static_cast<float>(config_.edge_jump_m);
   const double grazing_dropout_deg = config_.grazing_dropout_deg;
   cv::Mat noisy(depth_m.size(), CV_32FC1);
 
   for_each_row_band(height, [&](int band_index, int first_row, int end_row) {
     DepthRows rows(depth_m, camera, jump_m, band_px, grazing_dropout_deg);
-    NormalIndexStream indices(seeds[2 * static_cast<std::size_t>(band_index)], width);
     WyRand uniforms(seeds[2 * static_cast<std::size_t>(band_index) + 1]);
     std::vector<std::uint8_t> keep(width + sizeof(std::uint64_t), 0);
-    std::vector<std::pair<std::size_t, std::size_t>> runs;
     std::vector<std::uint8_t> band(edge_dropout ? width + sizeof(std::uint64_t) : 0, 0);
-    std::vector<float> noise(width);
 
     // Row v needs sanitised rows up to v + ahead + 1 and back to v - 1, jumps of rows v - 1 .. v + ahead
     // and edges of rows v - ahead .. v + ahead. Rows come in in order (row r: sanitised row r + 1,
@@ -609,18 +629,8 @@ cv::Mat DepthNoiseModel::apply(const cv::Mat& depth_m, const core::PinholeCamera
           }
         }
       }
-      // The k-th kept pixel of the row takes the k-th index: per run of kept pixels, one contiguous
-      // gather (dropped pixels' noise is not used).
-      kept_runs(keep.data(), width, &runs);
-      std::size_t kept = 0;
-      for (const auto& [start, end] : runs) kept += end - start;
-      const std::uint16_t* index = indices.take(kept);
-      for (const auto& [start, end] : runs) {
-        gather_row(table, index, end - start, noise.data() + start);
-        index += end - start;
-      }
-      noisy_depth_row(rows.sanitized_row(v), keep.data(), noise.data(), width, sigma_base_m, sigma_quadratic,
-                      noisy.ptr<float>(v));
+      noisy_depth_row(rows.sanitized_row(v), keep.data(), field.noise.ptr<float>(v), width, sigma_base_m,
+                      sigma_quadratic, noisy.ptr<float>(v));
     }
   });
   return noisy;
@@ -665,63 +675,95 @@ void ImageNoiseModel::advance_exposure(core::TimeNs t_ns) {
   gain_ = std::exp(log_gain_);
 }
 
-cv::Mat ImageNoiseModel::apply(const cv::Mat& image, core::TimeNs t_ns) {
-  if (image.type() != CV_8UC1 && image.type() != CV_8UC3) {
-    throw std::invalid_argument("ImageNoiseModel::apply: image must be CV_8UC1 or CV_8UC3");
-  }
-  if (!config_.enabled) return image.clone();
+ImageNoiseDraw ImageNoiseModel::next(core::TimeNs t_ns) {
+  ImageNoiseDraw draw;
+  if (!config_.enabled) return draw;
   advance_exposure(t_ns);
-  if (config_.sigma_intensity == 0.0 && gain_ == 1.0) return image.clone();
+  draw.gain = gain_;
+  draw.pixel_noise = config_.sigma_intensity != 0.0;
+  if (draw.pixel_noise) draw.seed = rng_();
+  return draw;
+}
 
-  // Gain is applied to the clean intensity, then noise, then rounding and saturation to [0, 255]:
-  // out = saturate_cast<uchar>(scaled[in] + sigma * n) with scaled[i] = float(gain i), or at unit gain
-  // in + round(sigma n) saturated (the same but for exact ties, see the constructor). Per row: the
-  // noise (table lookups), then the rest in SIMD.
-  const auto sigma = static_cast<float>(config_.sigma_intensity);
-  const auto values_per_row = static_cast<std::size_t>(image.cols) * static_cast<std::size_t>(image.channels());
-  // One seed per image (none without noise), expanded into one stream per row band (see
-  // for_each_row_band) of table indices, one per value, row-major.
-  const std::vector<std::uint64_t> seeds = sigma != 0.0f ? row_band_seeds(rng_(), 1) : std::vector<std::uint64_t>{};
-  const std::size_t stream_take = sigma != 0.0f ? values_per_row : 0;
-  cv::Mat noisy(image.size(), image.type());
-  if (gain_ == 1.0 && !rounded_noise_.empty()) {
-    for_each_row_band(image.rows, [&](int band, int first_row, int end_row) {
-      NormalIndexStream indices(seeds[static_cast<std::size_t>(band)], stream_take);
-      std::vector<std::int8_t> noise(values_per_row);
-      const std::int8_t* table = rounded_noise_.data();
+// One seed per image (none without noise), expanded into one stream per row band (see
+// for_each_row_band) of table indices, one per value, row-major. At unit gain with the rounded table
+// the noise is round(sigma n) in bytes (see the constructor), else n in floats.
+ImageNoiseField ImageNoiseModel::expand(const ImageNoiseDraw& draw, cv::Size size, int channels, bool parallel) const {
+  ImageNoiseField field;
+  field.draw = draw;
+  if (!draw.pixel_noise) return field;
+  const auto values_per_row = static_cast<std::size_t>(size.width) * static_cast<std::size_t>(channels);
+  const std::vector<std::uint64_t> seeds = row_band_seeds(draw.seed, 1);
+  if (draw.gain == 1.0 && !rounded_noise_.empty()) {
+    field.noise.create(size.height, static_cast<int>(values_per_row), CV_8SC1);
+    const std::int8_t* table = rounded_noise_.data();
+    for_each_row_band(size.height, [&](int band, int first_row, int end_row) {
+      NormalIndexStream indices(seeds[static_cast<std::size_t>(band)], values_per_row);
       for (int v = first_row; v < end_row; ++v) {
         const std::uint16_t* index = indices.take(values_per_row);
+        std::int8_t* noise = field.noise.ptr<std::int8_t>(v);
 #if defined(__GNUC__)
 #pragma GCC unroll 8
 #endif
         for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
-        add_rounded_noise_row(image.ptr<std::uint8_t>(v), noise.data(), values_per_row, noisy.ptr<std::uint8_t>(v));
+      }
+    }, parallel);
+    return field;
+  }
+  field.noise.create(size.height, static_cast<int>(values_per_row), CV_32FC1);
+  const float* table = unit_normal_table().data();
+  for_each_row_band(size.height, [&](int band, int first_row, int end_row) {
+    NormalIndexStream indices(seeds[static_cast<std::size_t>(band)], values_per_row);
+    for (int v = first_row; v < end_row; ++v) {
+      gather_row(table, indices.take(values_per_row), values_per_row, field.noise.ptr<float>(v));
+    }
+  }, parallel);
+  return field;
+}
+
+cv::Mat ImageNoiseModel::apply(const cv::Mat& image, core::TimeNs t_ns) {
+  check_image_type(image);
+  return apply(image, expand(next(t_ns), image.size(), image.channels()));
+}
+
+// Gain is applied to the clean intensity, then noise, then rounding and saturation to [0, 255]:
+// out = saturate_cast<uchar>(scaled[in] + sigma * n) with scaled[i] = float(gain i), or at unit gain
+// in + round(sigma n) saturated (the same but for exact ties, see the constructor), per row in SIMD.
+cv::Mat ImageNoiseModel::apply(const cv::Mat& image, const ImageNoiseField& field) const {
+  check_image_type(image);
+  const double gain = field.draw.gain;
+  if (!config_.enabled || (field.noise.empty() && gain == 1.0)) return image.clone();
+  const auto values_per_row = static_cast<std::size_t>(image.cols) * static_cast<std::size_t>(image.channels());
+  if (!field.noise.empty() &&
+      (field.noise.rows != image.rows || static_cast<std::size_t>(field.noise.cols) != values_per_row)) {
+    throw std::invalid_argument("ImageNoiseModel::apply: the noise field has " + std::to_string(field.noise.rows) +
+                                " rows of " + std::to_string(field.noise.cols) + " values but the image " +
+                                std::to_string(image.rows) + " of " + std::to_string(values_per_row));
+  }
+  cv::Mat noisy(image.size(), image.type());
+  if (field.noise.type() == CV_8SC1) {
+    for_each_row_band(image.rows, [&](int, int first_row, int end_row) {
+      for (int v = first_row; v < end_row; ++v) {
+        add_rounded_noise_row(image.ptr<std::uint8_t>(v), field.noise.ptr<std::int8_t>(v), values_per_row,
+                              noisy.ptr<std::uint8_t>(v));
       }
     });
     return noisy;
   }
-  const bool unit_gain = gain_ == 1.0;
+  const bool unit_gain = gain == 1.0;
+  const auto sigma = static_cast<float>(config_.sigma_intensity);
   float scaled[256];
-  for (int i = 0; i < 256; ++i) scaled[i] = static_cast<float>(gain_ * i);
-  const float* table = unit_normal_table().data();
-  for_each_row_band(image.rows, [&](int band, int first_row, int end_row) {
-    NormalIndexStream indices(sigma != 0.0f ? seeds[static_cast<std::size_t>(band)] : 0, stream_take);
-    std::vector<float> noise(values_per_row, 0.0f);
+  for (int i = 0; i < 256; ++i) scaled[i] = static_cast<float>(gain * i);
+  for_each_row_band(image.rows, [&](int, int first_row, int end_row) {
+    const std::vector<float> zeros(field.noise.empty() ? values_per_row : 0, 0.0f);
     std::vector<float> base(unit_gain ? 0 : values_per_row);
     for (int v = first_row; v < end_row; ++v) {
       const std::uint8_t* in = image.ptr<std::uint8_t>(v);
-      if (sigma != 0.0f) {
-        const std::uint16_t* index = indices.take(values_per_row);
-#if defined(__GNUC__)
-#pragma GCC unroll 8
-#endif
-        for (std::size_t k = 0; k < values_per_row; ++k) noise[k] = table[index[k]];
-      }
       if (!unit_gain) {
         for (std::size_t k = 0; k < values_per_row; ++k) base[k] = scaled[in[k]];
       }
-      add_noise_row(in, unit_gain ? nullptr : base.data(), noise.data(), sigma, values_per_row,
-                    noisy.ptr<std::uint8_t>(v));
+      add_noise_row(in, unit_gain ? nullptr : base.data(), field.noise.empty() ? zeros.data() : field.noise.ptr<float>(v),
+                    sigma, values_per_row, noisy.ptr<std::uint8_t>(v));
     }
   });
   return noisy;

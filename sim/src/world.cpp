@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -228,19 +229,42 @@ core::SensorFrame World::Impl::render_frame(RobotRuntime& robot, std::size_t ind
   detail::RenderOptions options;
   options.shadows = camera.shadows;
   options.want_depth = camera.depth;
+  // The noise models' draws in order here; their expansion into pixel noise (most of the models' work,
+  // none of which needs the images) on another thread while the images render, using the cores
+  // llvmpipe leaves idle. The fields are a pure function of the draws, so the bytes do not depend on
+  // the timing.
+  const bool stereo = robot.camera_right_id >= 0;
+  const cv::Size size(camera.width, camera.height);
+  const int channels = camera.gray ? 1 : 3;
+  const ImageNoiseDraw left_draw = robot.left_noise.next(t_ns);
+  const DepthNoiseDraw depth_draw = camera.depth ? robot.depth_noise.next() : DepthNoiseDraw{};
+  const ImageNoiseDraw right_draw = stereo ? robot.right_noise.next(t_ns) : ImageNoiseDraw{};
+  struct Fields {
+    ImageNoiseField left;
+    DepthNoiseField depth;
+    ImageNoiseField right;
+  };
+  std::future<Fields> fields = std::async(std::launch::async, [&] {
+    return Fields{robot.left_noise.expand(left_draw, size, channels, false),
+                  robot.depth_noise.expand(depth_draw, size, false),
+                  stereo ? robot.right_noise.expand(right_draw, size, channels, false) : ImageNoiseField{}};
+  });
   cv::Mat bgr;
   cv::Mat depth;
+  cv::Mat right;
   renderer->render(model.get(), data.get(), robot.camera_id, camera.width, camera.height, options, &bgr, &depth);
-  if (camera.gray) cv::cvtColor(bgr, bgr, cv::COLOR_BGR2GRAY);
-  frame.image = robot.left_noise.apply(bgr, t_ns);
-  if (camera.depth) frame.depth_m = robot.depth_noise.apply(depth, robot.camera);
-  if (robot.camera_right_id >= 0) {
+  if (stereo) {
     options.want_depth = false;
-    cv::Mat right;
     renderer->render(model.get(), data.get(), robot.camera_right_id, camera.width, camera.height, options, &right,
                      nullptr);
+  }
+  const Fields noise = fields.get();
+  if (camera.gray) cv::cvtColor(bgr, bgr, cv::COLOR_BGR2GRAY);
+  frame.image = robot.left_noise.apply(bgr, noise.left);
+  if (camera.depth) frame.depth_m = robot.depth_noise.apply(depth, robot.camera, noise.depth);
+  if (stereo) {
     if (camera.gray) cv::cvtColor(right, right, cv::COLOR_BGR2GRAY);
-    frame.right = robot.right_noise.apply(right, t_ns);
+    frame.right = robot.right_noise.apply(right, noise.right);
   }
   frame.imu = std::move(robot.pending_imu);
   robot.pending_imu.clear();

@@ -3,13 +3,15 @@
 // the analytic incidence angle of a floor, dropout near a depth step, all dropout against a plain
 // per-pixel reference on a cluttered scene, intensity noise and saturation (also under exposure
 // changes), the exposure process, repeatability from the seed and independence of the thread count,
-// and the cost of a 640x480 frame.
+// the draws expanded apart (on another thread) giving the same bytes, a pixel's depth noise not
+// depending on the rest of the image, and the cost of a 640x480 frame.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <future>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -410,6 +412,87 @@ TEST(SensorNoise, ImagesDoNotDependOnTheThreadCount) {
       EXPECT_EQ(cv::norm(one[i], many[i], cv::NORM_INF), 0.0) << "image " << i << " with " << threads << " threads";
     }
   }
+}
+
+// The three steps (draw, expand the image-independent noise, apply to the image) give the one step's
+// bytes, with the expansion on the pool or serial and run on another thread, for depth, the image at
+// unit gain (rounded table), under exposure changes and with a sigma too large for the table.
+TEST(SensorNoise, ExpandingTheDrawsApartGivesTheSameImages) {
+  const core::PinholeCamera camera = vga_camera();
+  const cv::Mat depth = cluttered_depth(camera);
+  cv::Mat rgb(480, 640, CV_8UC3);
+  cv::randu(rgb, cv::Scalar::all(0), cv::Scalar::all(256));
+  cv::Mat gray;
+  cv::cvtColor(rgb, gray, cv::COLOR_BGR2GRAY);
+  ImageNoiseConfig exposure;
+  exposure.exposure_changes = true;
+  ImageNoiseConfig wide;
+  wide.sigma_intensity = 40.0;  // round(sigma n) does not fit in a byte: the float path at unit gain
+  for (const bool parallel : {true, false}) {
+    DepthNoiseModel depth_one(DepthNoiseConfig{}, 3), depth_three(DepthNoiseConfig{}, 3);
+    for (int k = 0; k < 2; ++k) {
+      const DepthNoiseDraw draw = depth_three.next();
+      const DepthNoiseField field = std::async(std::launch::async, [&] {
+        return depth_three.expand(draw, depth.size(), parallel);
+      }).get();
+      EXPECT_EQ(cv::norm(depth_one.apply(depth, camera), depth_three.apply(depth, camera, field), cv::NORM_INF), 0.0)
+          << "depth image " << k << (parallel ? " on the pool" : " serial");
+    }
+    for (const ImageNoiseConfig& config : {ImageNoiseConfig{}, exposure, wide}) {
+      for (const cv::Mat& image : {rgb, gray}) {
+        ImageNoiseModel one(config, 4), three(config, 4);
+        for (int k = 0; k < 3; ++k) {
+          const ImageNoiseDraw draw = three.next(k * 33'000'000);
+          const ImageNoiseField field = std::async(std::launch::async, [&] {
+            return three.expand(draw, image.size(), image.channels(), parallel);
+          }).get();
+          const cv::Mat a = one.apply(image, k * 33'000'000);
+          const cv::Mat b = three.apply(image, field);
+          ASSERT_EQ(a.type(), b.type());
+          EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0)
+              << "image " << k << ", " << image.channels() << " channels, sigma " << config.sigma_intensity
+              << (config.exposure_changes ? ", exposure changes" : "") << (parallel ? ", on the pool" : ", serial");
+        }
+      }
+    }
+  }
+}
+
+// A pixel's Gaussian noise is drawn whether or not the pixel is kept, so it depends on the pixel's
+// place and the seed, not on the rest of the image: a hole or a step elsewhere leaves every other
+// pixel's noisy depth as it was.
+TEST(DepthNoise, APixelsNoiseDoesNotDependOnTheRestOfTheImage) {
+  const core::PinholeCamera camera = vga_camera();
+  const DepthNoiseConfig config = noise_only_config();
+  const cv::Mat plane = constant_depth(camera, 2.0f);
+  cv::Mat holed = plane.clone();
+  holed(cv::Rect(100, 50, 200, 100)).setTo(cv::Scalar(0.0f));
+  holed(cv::Rect(400, 300, 100, 100)).setTo(cv::Scalar(9.5f));  // out of range: dropped
+  DepthNoiseModel a(config, 21), b(config, 21);
+  const cv::Mat noisy_plane = a.apply(plane, camera);
+  const cv::Mat noisy_holed = b.apply(holed, camera);
+  int compared = 0, differing = 0;
+  for (int v = 0; v < plane.rows; ++v) {
+    for (int u = 0; u < plane.cols; ++u) {
+      if (holed.at<float>(v, u) != 2.0f) continue;
+      ++compared;
+      differing += noisy_plane.at<float>(v, u) != noisy_holed.at<float>(v, u) ? 1 : 0;
+    }
+  }
+  EXPECT_GT(compared, plane.rows * plane.cols * 8 / 10);
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(cv::norm(noisy_plane, plane, cv::NORM_INF), 0.0);  // there is noise
+}
+
+TEST(SensorNoise, AFieldOfAnotherSizeIsRejected) {
+  const core::PinholeCamera camera = vga_camera();
+  DepthNoiseModel depth_model(DepthNoiseConfig{}, 1);
+  const DepthNoiseField small = depth_model.expand(depth_model.next(), cv::Size(320, 240));
+  EXPECT_THROW(depth_model.apply(constant_depth(camera, 1.0f), camera, small), std::invalid_argument);
+  ImageNoiseModel image_model(ImageNoiseConfig{}, 1);
+  const ImageNoiseField gray_field = image_model.expand(image_model.next(0), cv::Size(640, 480), 1);
+  EXPECT_THROW(image_model.apply(cv::Mat(480, 640, CV_8UC3, cv::Scalar::all(9)), gray_field), std::invalid_argument);
+  EXPECT_EQ(image_model.apply(cv::Mat(480, 640, CV_8UC1, cv::Scalar(9)), gray_field).size(), cv::Size(640, 480));
 }
 
 // Each row band draws its own stream: the noise of two bands is uncorrelated (not one stream
