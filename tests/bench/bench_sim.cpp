@@ -3,8 +3,9 @@
 // the same scene and camera, and the noise models alone on one rendered frame. Usage:
 //   bench_sim [--scenario scenes/office/office_2robots.yaml] [google-benchmark flags]
 // The first robot's camera is measured; its resolution is the scenario's (override: --width/--height).
-// Time is wall time (llvmpipe renders on its own threads); CPU is the main thread's, so the pipeline's
-// CPU minus the bare render's is the sensor pipeline's own cost. The pipeline reads the offscreen
+// Time is wall time (llvmpipe renders on its own threads); CPU is the main thread's: the pipeline's
+// CPU minus the bare render's is the sensor pipeline's own cost on the main thread (the noise models
+// expand their Gaussian draws on another thread while the image renders, not counted there). The pipeline reads the offscreen
 // buffer in llvmpipe's own formats (see sim/src/renderer.cpp); BM_BareRender/packed:1 is the bare
 // render with that readback, for the overhead of everything else. On a shared machine run with
 //   --benchmark_repetitions=6 --benchmark_enable_random_interleaving=true
