@@ -163,7 +163,7 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vecto
   }
   std::vector<std::uint8_t> crossed(n, 0);
   if (config_.carve_rays) {
-    for (const SensorView& view : views_world) carve(view, crossed);
+    for (const SensorView& view : views_world) carve(view, obstacle_count, crossed);
   }
   cells_.assign(n, CellState::kUnknown);
   for (std::size_t i = 0; i < n; ++i) {
@@ -180,8 +180,10 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vecto
 }
 
 // Walks each ray's cells in xy (Amanatides & Woo 1987) and marks those it crosses entirely below the top
-// of the obstacle band, up to carve_stop_short_m before its point.
-void OccupancyGrid::carve(const SensorView& view, std::vector<std::uint8_t>& crossed) {
+// of the obstacle band, up to carve_stop_short_m before its point (a rising ray: up to the first cell
+// holding obstacle points).
+void OccupancyGrid::carve(const SensorView& view, const std::vector<int>& obstacle_count,
+                          std::vector<std::uint8_t>& crossed) {
   const Eigen::Vector3d o = view.origin_world.cast<double>();
   if (!o.allFinite()) return;
   const double res = config_.resolution_m;
@@ -195,13 +197,19 @@ void OccupancyGrid::carve(const SensorView& view, std::vector<std::uint8_t>& cro
     const double length = d.norm();
     if (!(length > config_.carve_stop_short_m)) continue;
     const double t_end = 1.0 - config_.carve_stop_short_m / length;  // ray parameter where carving stops
-    // Heights along the ray: z(t) = o.z + t d.z; carve the part below `top`, t in [t_begin, t_stop).
+    // Heights along the ray: z(t) = o.z + t d.z; carve the part below `top`, t in [t_begin, t_stop). A
+    // ray shows free space only at its own height. What a ray that does not rise passes over is lower
+    // than the sensor, which sees its top (its cell holds obstacle points). A rising ray passes over
+    // things taller than the sensor whose tops it cannot see: from 0.3 m, rays to the wall behind a 0.5 m
+    // bed cross the bed's cells above it, and only the bed's near side is in the map. So a rising ray
+    // stops at the first cell holding obstacle points: beyond it, it may be passing over that obstacle.
     double t_begin = 0.0;
     double t_stop = t_end;
+    const bool rising = d.z() > 0.0;
     if (o.z() > top) {  // a sensor above the band: from where the ray enters it
       if (!(d.z() < 0.0)) continue;
       t_begin = (top - o.z()) / d.z();
-    } else if (d.z() > 0.0) {
+    } else if (rising) {
       t_stop = std::min(t_end, (top - o.z()) / d.z());
     }
     if (!(t_stop > t_begin)) continue;
@@ -219,7 +227,11 @@ void OccupancyGrid::carve(const SensorView& view, std::vector<std::uint8_t>& cro
     double next_y = dy < kInf ? t_begin + (sy > 0 ? 1.0 - fy : fy) * dy : kInf;
     for (;;) {
       if (std::min(next_x, next_y) >= t_stop) break;  // the cell the carving ends in is not crossed entirely
-      if (x >= 0 && y >= 0 && x < width_ && y < height_) crossed[index({x, y})] = 1;
+      if (x >= 0 && y >= 0 && x < width_ && y < height_) {
+        const std::size_t i = index({x, y});
+        if (rising && obstacle_count[i] > 0) break;
+        crossed[i] = 1;
+      }
       if (next_x < next_y) {
         x += sx;
         next_x += dx;

@@ -97,9 +97,10 @@ bool segment_meets_cell(const Eigen::Vector2d& a, const Eigen::Vector2d& b, cons
 }
 
 // Free-space carving against a brute-force oracle: random rays from a sensor 0.3 m up to points on the
-// walls of an empty room whose floor was never seen. Every cell the ray passes through below the band's
-// top (densely sampled), except the one it stops in, is free; every free cell meets the carved part of
-// a ray; cells holding obstacle points stay occupied.
+// walls of a room whose floor was never seen, with a low box in it. Every cell the ray passes through
+// below the band's top (densely sampled), except the one it stops in, is free (a rising ray: up to the
+// first cell holding obstacle points); every free cell meets the carved part of a ray; cells holding
+// obstacle points stay occupied.
 TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
   OccupancyGridConfig config = grid_config();
   config.bounds_xy_m = {-0.5, -0.5, 4.5, 4.5};
@@ -109,7 +110,7 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
                                     [](const Eigen::Vector3f& p) { return std::abs(p.z()) < 1e-6f && p.x() >= 0.0f &&
                                                                           p.x() <= 4.0f && p.y() >= 0.0f && p.y() <= 4.0f; }),
                      walls.points.end());  // no floor seen
-  add_box(walls, 2.5, 2.5, 2.8, 2.8, 0.0, 0.4);  // a low box the rays pass over
+  add_box(walls, 2.5, 2.5, 2.8, 2.8, 0.0, 0.2);  // a low box the rays pass over
   SensorView view;
   view.origin_world = Eigen::Vector3f(1.0f, 1.2f, 0.3f);
   std::mt19937 rng(5);
@@ -130,19 +131,32 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
 
   const double top = config.obstacle_max_height_m, res = config.resolution_m;
   const Eigen::Vector3d o = view.origin_world.cast<double>();
+  std::vector<std::uint8_t> holds_obstacle(static_cast<std::size_t>(grid.width() * grid.height()), 0);
+  for (const Eigen::Vector3f& p : walls.points) {
+    const auto cell = grid.cell_of(p.head<2>().cast<double>());
+    if (cell && p.z() >= config.obstacle_min_height_m && p.z() <= top) holds_obstacle[grid.index(*cell)] = 1;
+  }
   std::vector<std::uint8_t> oracle(static_cast<std::size_t>(grid.width() * grid.height()), 0);
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> carved_parts;
+  std::size_t stopped_by_obstacles = 0;
   for (std::size_t i = 0; i < 400; ++i) {
     const Eigen::Vector3d d = view.points_world[i].cast<double>() - o;
     double t_stop = 1.0 - config.carve_stop_short_m / d.norm();
     if (d.z() > 0.0) t_stop = std::min(t_stop, (top - o.z()) / d.z());
-    carved_parts.emplace_back(o.head<2>(), (o + t_stop * d).head<2>());
     const auto end_cell = grid.cell_of((o + t_stop * d).head<2>());
+    double t_carved = t_stop;
     for (int k = 0; k < 20000; ++k) {
       const double t = t_stop * k / 20000.0;
       const auto cell = grid.cell_of((o + t * d).head<2>());
-      if (cell && cell != end_cell) oracle[grid.index(*cell)] = 1;
+      if (!cell || cell == end_cell) continue;
+      if (d.z() > 0.0 && holds_obstacle[grid.index(*cell)]) {  // a rising ray stops there
+        t_carved = t;
+        ++stopped_by_obstacles;
+        break;
+      }
+      oracle[grid.index(*cell)] = 1;
     }
+    carved_parts.emplace_back(o.head<2>(), (o + t_carved * d).head<2>());
   }
   for (int y = 0; y < grid.height(); ++y) {
     for (int x = 0; x < grid.width(); ++x) {
@@ -157,6 +171,7 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
       }
     }
   }
+  EXPECT_GT(stopped_by_obstacles, 0u);  // rays rising over the box
   EXPECT_EQ(state_at(grid, 2.65, 2.65), CellState::kOccupied);  // the box stays
   EXPECT_EQ(state_at(grid, -0.03, 2.0), CellState::kOccupied);   // so do the walls
 
@@ -169,8 +184,9 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
 }
 
 // A ray that climbs above the band's top clears only the cells it crosses below it; one from a sensor
-// above the band clears from where it enters the band.
-TEST(OccupancyGrid, RaysAboveTheBandClearNothingThere) {
+// above the band clears from where it enters the band; a rising ray stops at a cell holding an obstacle
+// point, a level one does not.
+TEST(OccupancyGrid, RaysAboveTheBandOrBeyondAnObstacleTheyRiseOverClearNothing) {
   OccupancyGridConfig config = grid_config();
   config.bounds_xy_m = {0.0, 0.0, 5.0, 1.0};
   config.carve_stop_short_m = 0.0;
@@ -181,14 +197,64 @@ TEST(OccupancyGrid, RaysAboveTheBandClearNothingThere) {
   SensorView high;
   high.origin_world = Eigen::Vector3f(0.01f, 0.325f, 3.0f);
   high.points_world = {Eigen::Vector3f(4.01f, 0.325f, 0.0f)};  // enters the band (z = 1) at x = 2.677
-  grid.update(core::PointCloud{}, {climbing, high});
+  // Over a cell holding one obstacle point (at x 1.5): the rising ray stops there, the level one goes on.
+  core::PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(1.525f, 0.825f, 0.2f));
+  cloud.push_back(Eigen::Vector3f(1.525f, 0.725f, 0.2f));
+  SensorView rising;
+  rising.origin_world = Eigen::Vector3f(0.01f, 0.825f, 0.3f);
+  rising.points_world = {Eigen::Vector3f(3.01f, 0.825f, 0.5f)};
+  SensorView level;
+  level.origin_world = Eigen::Vector3f(0.01f, 0.725f, 0.3f);
+  level.points_world = {Eigen::Vector3f(3.01f, 0.725f, 0.3f)};
+  grid.update(cloud, {climbing, high, rising, level});
   EXPECT_EQ(state_at(grid, 0.5, 0.525), CellState::kFree);
   EXPECT_EQ(state_at(grid, 0.975, 0.525), CellState::kFree);
   EXPECT_EQ(state_at(grid, 1.025, 0.525), CellState::kUnknown);  // the ray is above 1 m across it
   EXPECT_EQ(state_at(grid, 3.0, 0.525), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 1.475, 0.825), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 1.575, 0.825), CellState::kUnknown);  // beyond the obstacle it rose over
+  EXPECT_EQ(state_at(grid, 2.5, 0.825), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 1.475, 0.725), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 2.5, 0.725), CellState::kFree);
   EXPECT_EQ(state_at(grid, 2.5, 0.325), CellState::kUnknown);
   EXPECT_EQ(state_at(grid, 2.725, 0.325), CellState::kFree);
   EXPECT_EQ(state_at(grid, 3.9, 0.325), CellState::kFree);
+}
+
+// A bed 0.5 m tall seen by a camera 0.3 m up: the camera sees its near side, not its top. Rays to the
+// wall behind rise over the bed's cells and must not clear them, or the planner routes the robot through a
+// gap in the near side onto the bed. Rays down to the floor and the side's lower part clear the floor in
+// front of it.
+TEST(OccupancyGrid, RaysOverAnObstacleTallerThanTheSensorDoNotClearIt) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {0.0, 0.0, 4.2, 2.0};
+  OccupancyGrid grid(config);
+  core::PointCloud cloud;  // the bed's near side (x = 2.0, y 0.5 .. 1.5, z 0 .. 0.5) and the wall behind
+  SensorView view;
+  view.origin_world = Eigen::Vector3f(0.2f, 1.0f, 0.3f);
+  for (int i = 0; i <= 40; ++i) {
+    const float y = 0.5f + 0.025f * static_cast<float>(i);
+    for (int k = 0; k <= 10; ++k) {
+      const Eigen::Vector3f side(2.0f, y, 0.05f * static_cast<float>(k));
+      cloud.push_back(side);
+      view.points_world.push_back(side);
+    }
+    for (int k = 0; k <= 20; ++k) {
+      const Eigen::Vector3f wall(4.05f, y, 0.6f + 0.05f * static_cast<float>(k));  // over the bed: rising rays
+      cloud.push_back(wall);
+      view.points_world.push_back(wall);
+    }
+  }
+  grid.update(cloud, {view});
+  for (double x = 2.1; x < 3.0; x += 0.1) {
+    for (double y = 0.6; y < 1.45; y += 0.1) {
+      EXPECT_NE(state_at(grid, x, y), CellState::kFree) << "on the bed: " << x << ", " << y;
+    }
+  }
+  EXPECT_EQ(state_at(grid, 1.0, 1.0), CellState::kFree);   // in front of it
+  EXPECT_EQ(state_at(grid, 1.9, 1.0), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 2.0, 1.0), CellState::kOccupied);  // its side
 }
 
 // A ray passing a cell that holds an obstacle point too few to call it occupied (min_obstacle_points)

@@ -10,7 +10,11 @@
 // Free-space carving (carve_rays): a point seen from a sensor means nothing stood between them. Each ray
 // from a SensorView's origin to its points clears the cells it crosses while it is below the top of the
 // obstacle band (obstacle_max_height_m; a ray above it says nothing about what stands lower), up to
-// carve_stop_short_m before the point and never the cell the carving ends in. A forward camera sees the
+// carve_stop_short_m before the point and never the cell the carving ends in. A rising ray stops at the
+// first cell holding obstacle points: it passes over what stands lower than it, and a thing taller than
+// the sensor hides its top (a bed seen from below is only its near side in the map), so beyond its seen
+// side the ray says nothing. What a ray that does not rise passes over is lower than the sensor, which
+// sees its top. A forward camera sees the
 // floor only in sparse rows at grazing angles; its rays fill the floor between them, as ROS costmaps' ray
 // tracing does. Obstacles win: a cell holding any obstacle point (even fewer than min_obstacle_points)
 // is not carved. Stopping short leaves a band of unknown cells in front of every wall, and a frontier
@@ -186,7 +190,7 @@ class OccupancyGrid {
 
  private:
   void recompute_clearances();
-  void carve(const SensorView& view, std::vector<std::uint8_t>& crossed);
+  void carve(const SensorView& view, const std::vector<int>& obstacle_count, std::vector<std::uint8_t>& crossed);
   void place_frontier_goal(Frontier& frontier) const;
   template <class Fn>
   void for_cells_in(const std::vector<Disk>& disks_world, Fn&& fn);
