@@ -198,11 +198,8 @@ void OccupancyGrid::carve(const SensorView& view, const std::vector<int>& obstac
     if (!(length > config_.carve_stop_short_m)) continue;
     const double t_end = 1.0 - config_.carve_stop_short_m / length;  // ray parameter where carving stops
     // Heights along the ray: z(t) = o.z + t d.z; carve the part below `top`, t in [t_begin, t_stop). A
-    // ray shows free space only at its own height. What a ray that does not rise passes over is lower
-    // than the sensor, which sees its top (its cell holds obstacle points). A rising ray passes over
-    // things taller than the sensor whose tops it cannot see: from 0.3 m, rays to the wall behind a 0.5 m
-    // bed cross the bed's cells above it, and only the bed's near side is in the map. So a rising ray
-    // stops at the first cell holding obstacle points: beyond it, it may be passing over that obstacle.
+    // rising ray stops at the first cell holding obstacle points (see the header: beyond it, it may be
+    // passing over a thing taller than the sensor whose top the map lacks).
     double t_begin = 0.0;
     double t_stop = t_end;
     const bool rising = d.z() > 0.0;

@@ -14,9 +14,8 @@
 // first cell holding obstacle points: it passes over what stands lower than it, and a thing taller than
 // the sensor hides its top (a bed seen from below is only its near side in the map), so beyond its seen
 // side the ray says nothing. What a ray that does not rise passes over is lower than the sensor, which
-// sees its top. A forward camera sees the
-// floor only in sparse rows at grazing angles; its rays fill the floor between them, as ROS costmaps' ray
-// tracing does. Obstacles win: a cell holding any obstacle point (even fewer than min_obstacle_points)
+// sees its top. A forward camera sees the floor only in sparse rows at grazing angles; its rays fill the
+// floor between them, as ROS costmaps' ray tracing does. Obstacles win: a cell holding any obstacle point (even fewer than min_obstacle_points)
 // is not carved. Stopping short leaves a band of unknown cells in front of every wall, and a frontier
 // there: keep carve_stop_short_m below the resolution (the wall's own cell is never carved anyway).
 // Inflation: every cell keeps its clearance, the distance between its centre and the centre of the
