@@ -1,7 +1,8 @@
 // PLY and PCD readers and writers, written by hand (no PCL in core).
 //
 // PLY: "ply", "format ascii|binary_little_endian|binary_big_endian 1.0", elements with scalar or list
-// properties, "end_header". Only the vertex element is read (x y z, colour from red|r|diffuse_red ...);
+// properties, "end_header". Only the vertex element is read (x y z, colour from red|r|diffuse_red ...,
+// normal from nx ny nz);
 // elements before it are skipped row by row, elements after it are not read at all.
 // PCD (v0.5-0.7): header keys FIELDS SIZE TYPE COUNT WIDTH HEIGHT POINTS DATA; DATA ascii, binary or
 // binary_compressed (LZF, fields stored one after the other). Colour is the packed "rgb" or "rgba",
@@ -263,8 +264,10 @@ class BodyReader {
 struct PointSlots {
   std::array<int, 3> xyz = {-1, -1, -1};
   std::array<int, 3> rgb = {-1, -1, -1};
+  std::array<int, 3> normal = {-1, -1, -1};  // PLY only
   bool has_xyz() const { return xyz[0] >= 0 && xyz[1] >= 0 && xyz[2] >= 0; }
   bool has_rgb() const { return rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0; }
+  bool has_normal() const { return normal[0] >= 0 && normal[1] >= 0 && normal[2] >= 0; }
 };
 
 // ---------------------------------------------------------------------------------------------------
@@ -372,6 +375,7 @@ PointSlots ply_slots(const PlyElement& vertex) {
   slots.xyz = {find({"x"}), find({"y"}), find({"z"})};
   slots.rgb = {find({"red", "r", "diffuse_red"}), find({"green", "g", "diffuse_green"}),
                find({"blue", "b", "diffuse_blue"})};
+  slots.normal = {find({"nx"}), find({"ny"}), find({"nz"})};
   return slots;
 }
 
@@ -410,6 +414,7 @@ std::string ply_header_text(const PointCloud& cloud, CloudEncoding encoding) {
   header += "element vertex " + std::to_string(cloud.size()) + "\n";
   header += "property float x\nproperty float y\nproperty float z\n";
   if (cloud.has_colors()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (cloud.has_normals()) header += "property float nx\nproperty float ny\nproperty float nz\n";
   header += "end_header\n";
   return header;
 }
@@ -711,13 +716,15 @@ std::string lower_extension(const std::string& path) {
 
 void write_ply(const std::string& path, const PointCloud& cloud, CloudEncoding encoding) {
   const bool rgb = cloud.has_colors();
+  const bool normal = cloud.has_normals();
   std::string data = ply_header_text(cloud, encoding);
-  data.reserve(data.size() + cloud.size() * (encoding == CloudEncoding::kAscii ? 48 : 15));
+  data.reserve(data.size() + cloud.size() * (encoding == CloudEncoding::kAscii ? 48 : 15) * (normal ? 2 : 1));
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3f& p = cloud.points[i];
     if (encoding == CloudEncoding::kBinary) {
       for (int axis = 0; axis < 3; ++axis) append_raw(data, p[axis]);
       if (rgb) data.append(reinterpret_cast<const char*>(cloud.colors[i].data()), 3);
+      for (int axis = 0; normal && axis < 3; ++axis) append_raw(data, cloud.normals[i][axis]);
       continue;
     }
     for (int axis = 0; axis < 3; ++axis) {
@@ -727,6 +734,10 @@ void write_ply(const std::string& path, const PointCloud& cloud, CloudEncoding e
     for (int c = 0; rgb && c < 3; ++c) {
       data += ' ';
       append_number(data, std::uint32_t{cloud.colors[i][c]});
+    }
+    for (int axis = 0; normal && axis < 3; ++axis) {
+      data += ' ';
+      append_number(data, cloud.normals[i][axis]);
     }
     data += '\n';
   }
@@ -755,6 +766,10 @@ PointCloud read_ply(const std::string& path) {
       if (!read_ply_row(body, element, values)) throw InputError(path, element_message(element, row, body));
       const Eigen::Vector3f point(static_cast<float>(values[slots.xyz[0]]), static_cast<float>(values[slots.xyz[1]]),
                                   static_cast<float>(values[slots.xyz[2]]));
+      if (slots.has_normal()) {
+        cloud.normals.emplace_back(static_cast<float>(values[slots.normal[0]]), static_cast<float>(values[slots.normal[1]]),
+                                   static_cast<float>(values[slots.normal[2]]));
+      }
       if (!slots.has_rgb()) {
         cloud.push_back(point);
         continue;

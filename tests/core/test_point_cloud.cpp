@@ -316,6 +316,42 @@ TEST(PointCloudIo, ReadsAsciiPlyWithDoublesNormalsExtraElementsAndFloatColours) 
   EXPECT_EQ(cloud.points[1], Eigen::Vector3f(0.1f, 0.2f, 0.3f));
   EXPECT_EQ(cloud.colors[0], (PointCloud::Rgb{255, 128, 0}));  // float colours in [0, 1]
   EXPECT_EQ(cloud.colors[1], (PointCloud::Rgb{0, 0, 255}));
+  ASSERT_TRUE(cloud.has_normals());
+  EXPECT_EQ(cloud.normals[0], Eigen::Vector3f(0, 0, 1));
+  EXPECT_EQ(cloud.normals[1], Eigen::Vector3f(0, 1, 0));
+}
+
+// The central unit tells the faces of a thin wall apart by their normals: a map written and read back
+// keeps them, with and without colours, in both encodings; PCD has no normals (they are dropped).
+TEST(PointCloudIo, PlyKeepsNormals) {
+  const fs::path dir = test_dir();
+  for (const bool with_colors : {true, false}) {
+    PointCloud cloud = random_cloud(200, with_colors, 5);
+    std::mt19937 rng(9);
+    std::normal_distribution<float> gauss;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      cloud.normals.push_back(Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng)).normalized());
+    }
+    cloud.normals[7] = Eigen::Vector3f::Zero();  // unknown
+    for (const CloudEncoding encoding : {CloudEncoding::kBinary, CloudEncoding::kAscii}) {
+      const std::string path = (dir / "normals.ply").string();
+      write_ply(path, cloud, encoding);
+      const std::string bytes = read_bytes(path);
+      EXPECT_NE(bytes.find("property float nx\nproperty float ny\nproperty float nz\nend_header"), std::string::npos);
+      const PointCloud back = read_ply(path);
+      expect_same(cloud, back);
+      ASSERT_TRUE(back.has_normals());
+      for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(cloud.normals[i], back.normals[i]) << i;  // bit for bit
+    }
+    write_pcd((dir / "normals.pcd").string(), cloud);
+    const PointCloud pcd = read_pcd((dir / "normals.pcd").string());
+    expect_same(cloud, pcd);
+    EXPECT_FALSE(pcd.has_normals());
+  }
+  // A cloud without normals is written without the properties.
+  write_ply((dir / "plain.ply").string(), random_cloud(3, true, 1));
+  EXPECT_EQ(read_bytes(dir / "plain.ply").find("nx"), std::string::npos);
+  EXPECT_FALSE(read_ply((dir / "plain.ply").string()).has_normals());
 }
 
 // Appends a value to a binary body in big-endian byte order.

@@ -56,9 +56,9 @@ struct Bounds3f {
 };
 Bounds3f bounds(const PointCloud& cloud);
 
-// PLY (binary little-endian or ASCII; x y z as float, optional red green blue as uchar) and PCD
-// (binary or ASCII; x y z [rgb]). Writers create parent folders; readers accept what the writers
-// produce plus the common variants (double coordinates, extra properties ignored, vertex normals) and
+// PLY (binary little-endian or ASCII; x y z as float, optional red green blue as uchar, optional nx ny nz
+// as float) and PCD (binary or ASCII; x y z [rgb], no normals). Writers create parent folders; readers
+// accept what the writers produce plus the common variants (double coordinates, extra properties ignored) and
 // throw InputError naming the file and what is wrong (bad header, truncated body, unknown format).
 enum class CloudEncoding { kBinary, kAscii };
 void write_ply(const std::string& path, const PointCloud& cloud, CloudEncoding encoding = CloudEncoding::kBinary);
