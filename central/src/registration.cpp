@@ -66,6 +66,34 @@ std::vector<Eigen::Matrix3d> plane_covariances(const std::vector<Eigen::Vector3f
   return covariances;
 }
 
+// The plane covariances about the points' own normals: C = epsilon n n^T + (I - n n^T). Points without a
+// normal (zero, or a set without normals) take their neighbours' plane.
+std::vector<Eigen::Matrix3d> normal_covariances(const Prepared& set, const KdTree& tree, int neighbours, double epsilon) {
+  if (set.normals.empty()) return plane_covariances(set.points, tree, neighbours, epsilon);
+  std::vector<Eigen::Matrix3d> covariances(set.points.size());
+  std::vector<std::size_t> without_normal;
+  for (std::size_t i = 0; i < set.points.size(); ++i) {
+    const Eigen::Vector3d n = set.normals[i].cast<double>();
+    if (!(n.squaredNorm() > 0.25)) {  // unit normals, or zero where unknown
+      without_normal.push_back(i);
+      continue;
+    }
+    const Eigen::Vector3d u = n.normalized();
+    covariances[i] = Eigen::Matrix3d::Identity() - (1.0 - epsilon) * u * u.transpose();
+  }
+  if (!without_normal.empty()) {
+    const std::vector<Eigen::Matrix3d> fallback = plane_covariances(set.points, tree, neighbours, epsilon);
+    for (const std::size_t i : without_normal) covariances[i] = fallback[i];
+  }
+  return covariances;
+}
+
+std::vector<Eigen::Matrix3d> covariances(const Prepared& set, const KdTree& tree, const RegistrationConfig& config) {
+  return config.covariance == PlaneCovariance::kNormals
+             ? normal_covariances(set, tree, config.covariance_neighbours, config.plane_epsilon)
+             : plane_covariances(set.points, tree, config.covariance_neighbours, config.plane_epsilon);
+}
+
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d S;
   S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
@@ -106,10 +134,8 @@ RegistrationResult align_native(const Prepared& source_set, const Prepared& targ
   const float min_normal_cos = detail::min_normal_cos(config.max_normal_angle_deg);
   const bool use_normals = !source_set.normals.empty() && !target_set.normals.empty();
   const KdTree source_tree(source);
-  const std::vector<Eigen::Matrix3d> source_cov =
-      plane_covariances(source, source_tree, config.covariance_neighbours, config.plane_epsilon);
-  const std::vector<Eigen::Matrix3d> target_cov =
-      plane_covariances(target, target_tree, config.covariance_neighbours, config.plane_epsilon);
+  const std::vector<Eigen::Matrix3d> source_cov = covariances(source_set, source_tree, config);
+  const std::vector<Eigen::Matrix3d> target_cov = covariances(target_set, target_tree, config);
   const auto max_distance = static_cast<float>(config.max_correspondence_distance_m);
 
   // The centroid of the source set (at the guess) and its RMS radius: the point and scale the update is

@@ -103,7 +103,9 @@ nlohmann::json to_json(const MergeResult& m) {
                                {"fitness_m2", std::isfinite(r.registration.fitness_m2) ? nlohmann::json(r.registration.fitness_m2) : nlohmann::json(nullptr)},
                                {"information_ratio", r.registration.information_ratio},
                                {"degenerate_directions", r.registration.degenerate_directions},
-                               {"source_points", r.registration.source_points}, {"target_points", r.registration.target_points}};
+                               {"source_points", r.registration.source_points}, {"target_points", r.registration.target_points},
+                               {"refinement_rounds", r.refinement_rounds}, {"hypothesis", r.hypothesis},
+                               {"consistency_wide", r.consistency_wide}, {"consistency_local", r.consistency_local}};
     }
     robots.push_back(entry);
   }

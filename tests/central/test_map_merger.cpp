@@ -63,6 +63,9 @@ TEST(MapMerger, RefinesAWrongPriorAndMergesSamplesAndFilters) {
   EXPECT_GT(prior_m, 0.05);
   EXPECT_GT(prior_rad, 4.0 * kDeg);
   expect_pose_near(b.T_world_robot, kPoseB, 0.01, 0.5);
+  // Only the wide hypothesis pulls in a prior that far off, and it fits better.
+  EXPECT_EQ(b.hypothesis, "wide");
+  EXPECT_GT(b.consistency_wide, b.consistency_local);
 
   EXPECT_EQ(result.points_before_sampling, 60000u);
   EXPECT_LT(result.points_after_sampling, result.points_before_sampling);
@@ -176,13 +179,26 @@ TEST(MapMerger, OppositeFacesOfAThinWallDoNotPair) {
   expect_pose_near(r.T_world_robot, Eigen::Isometry3d::Identity(), 0.005, 0.2);
   EXPECT_FALSE(merged.cloud_world.has_normals() && merged.cloud_world.normals.size() != merged.cloud_world.size());
 
-  // The oracle: without normals the faces pair and B is pulled centimetres towards A.
+  // The oracle: without normals the faces pair and the wide GICP alone (the paper's fine matching) pulls B
+  // centimetres towards A.
   RobotCloud a_bare = a, b_bare = b;
   a_bare.cloud_robot.normals.clear();
   b_bare.cloud_robot.normals.clear();
-  const MergeResult pulled = MapMerger(MapMergerConfig{}).merge({a_bare, b_bare});
+  MapMergerConfig wide_only;
+  wide_only.local_hypothesis = false;
+  const MergeResult pulled = MapMerger(wide_only).merge({a_bare, b_bare});
   EXPECT_EQ(pulled.robots[1].overlap_normal_rejected, 0u);
-  EXPECT_GT(synthetic::pose_error(pulled.robots[1].T_world_robot, Eigen::Isometry3d::Identity()).first, 0.02);
+  EXPECT_EQ(pulled.robots[1].hypothesis, "wide");
+  EXPECT_EQ(pulled.robots[1].consistency_local, -1.0);
+  const double pulled_m = synthetic::pose_error(pulled.robots[1].T_world_robot, Eigen::Isometry3d::Identity()).first;
+  EXPECT_GT(pulled_m, 0.02);
+  // Weighed against the local hypothesis (the prior, 2.7 cm off, polished with 5 cm correspondences), the
+  // pulled result is the less consistent one, even without normals.
+  const MergeResult weighed = MapMerger(MapMergerConfig{}).merge({a_bare, b_bare});
+  const RobotMergeReport& w = weighed.robots[1];
+  EXPECT_EQ(w.hypothesis, "local");
+  EXPECT_GT(w.consistency_local, w.consistency_wide);
+  EXPECT_LT(synthetic::pose_error(w.T_world_robot, Eigen::Isometry3d::Identity()).first, 0.25 * pulled_m);
 }
 
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {

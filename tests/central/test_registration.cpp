@@ -57,6 +57,35 @@ TEST(GicpRegistration, NativeIsAccurateWithoutSamplingAndFromAGuess) {
   EXPECT_LT(rotation_rad, 0.5 * kDeg);
 }
 
+// Planes from the points' own normals (covariance: normals) on the two rooms seen from both sides of the
+// doorway, a few centimetres off; where no point has a normal they fall back to the neighbours' planes,
+// exactly.
+TEST(GicpRegistration, PlanesFromNormalsAndTheirFallback) {
+  const core::PointCloud target = synthetic::two_room_cloud(40000, {1.5f, 2.5f, 1.2f}, 0.003f, 31);
+  const Eigen::Isometry3d E = synthetic::pose(0.5, -0.3, 1.0, Eigen::Vector3d(0.03, -0.02, 0.01));
+  const core::PointCloud source =
+      core::transformed(synthetic::two_room_cloud(40000, {1.8f, 2.2f, 1.2f}, 0.003f, 32), E.inverse());
+  ASSERT_TRUE(source.has_normals() && target.has_normals());
+  RegistrationConfig config;
+  config.covariance = PlaneCovariance::kNormals;
+  config.max_correspondence_distance_m = 0.1;
+  config.voxel_size_m = 0.03;
+  const RegistrationResult result = GicpRegistration(config).align(source, target);
+  EXPECT_TRUE(result.converged) << result.status;
+  const auto [translation_m, rotation_rad] = synthetic::pose_error(result.T_target_source, E);
+  EXPECT_LT(translation_m, 0.005);
+  EXPECT_LT(rotation_rad, 0.2 * kDeg);
+
+  core::PointCloud source_bare = source, target_bare = target;
+  source_bare.normals.clear();
+  target_bare.normals.clear();
+  const RegistrationResult from_normals = GicpRegistration(config).align(source_bare, target_bare);
+  config.covariance = PlaneCovariance::kNeighbours;
+  const RegistrationResult from_neighbours = GicpRegistration(config).align(source_bare, target_bare);
+  EXPECT_TRUE(from_normals.T_target_source.isApprox(from_neighbours.T_target_source, 0.0));
+  EXPECT_EQ(from_normals.iterations, from_neighbours.iterations);
+}
+
 TEST(GicpRegistration, IdenticalCloudsGiveTheIdentity) {
   const core::PointCloud cloud = synthetic::room_cloud(5000, 0.0f, 6.0f, 0.0f, 5);
   const RegistrationResult result = GicpRegistration(RegistrationConfig{}).align(cloud, cloud);

@@ -1,7 +1,11 @@
 #pragma once
 // Fine matching (PAPER.md section 4, paper eqs. 8-12): generalized ICP (Segal et al. 2009) between the
-// overlap sets. Each point gets a covariance from its `covariance_neighbours` nearest points, flattened to
-// a plane (eigenvalues (plane_epsilon, 1, 1), "plane-to-plane"); correspondences are nearest neighbours
+// overlap sets. Each point gets a plane covariance, eigenvalues (plane_epsilon, 1, 1) ("plane-to-plane"),
+// about the plane of its `covariance_neighbours` nearest points in the sampled set (covariance:
+// neighbours, as PCL) or about its own normal (covariance: normals; the dense maps' normals come from the
+// depth image, a few pixels across; points without one take the neighbours' plane). On sets sampled
+// at 10 cm the neighbourhoods span a quarter metre and mix a doorway's wall, jamb and floor; normals keep
+// each plane local (MapMerger's local hypothesis uses them). Correspondences are nearest neighbours
 // within max_correspondence_distance_m; the transform minimises
 //   sum_i d_i^T (C_i^B + R C_i^A R^T)^-1 d_i,  d_i = b_i - T a_i      (paper eq. 12)
 // Both sets are first uniformly sampled at voxel_size_m (0: not sampled), which sets the cost. When both
@@ -34,6 +38,7 @@
 namespace fleetslam::central {
 
 enum class RegistrationBackend { kNative, kPcl };
+enum class PlaneCovariance { kNormals, kNeighbours };
 
 struct RegistrationConfig {
   bool enabled = true;  // false: align() returns the guess (status "disabled")
@@ -45,6 +50,7 @@ struct RegistrationConfig {
   double translation_epsilon_m = 1e-4;
   double rotation_epsilon_rad = 1e-4;
   double voxel_size_m = 0.1;      // uniform pre-sampling of both sets (0: none); see bench_merge.cpp
+  PlaneCovariance covariance = PlaneCovariance::kNeighbours;  // native backend; pcl always uses neighbours
   int covariance_neighbours = 20;  // PCL's default k
   double plane_epsilon = 1e-3;     // PCL's gicp_epsilon
   double degeneracy_ratio = 0.0;   // 0: every direction is updated (see above)
@@ -62,6 +68,7 @@ struct RegistrationConfig {
     v("translation_epsilon_m", translation_epsilon_m, core::Limits<double>{0.0, 1.0});
     v("rotation_epsilon_rad", rotation_epsilon_rad, core::Limits<double>{0.0, 1.0});
     v("voxel_size_m", voxel_size_m, core::Limits<double>{0.0, 10.0});
+    v.choice("covariance", covariance, {{"normals", PlaneCovariance::kNormals}, {"neighbours", PlaneCovariance::kNeighbours}});
     v("covariance_neighbours", covariance_neighbours, core::Limits<int>{3, 200});
     v("plane_epsilon", plane_epsilon, core::Limits<double>{1e-9, 1.0});
     v("degeneracy_ratio", degeneracy_ratio, core::Limits<double>{0.0, 1.0});
