@@ -218,8 +218,8 @@ detail::Refinement MapMerger::refine(const std::vector<detail::Round>& rounds, c
   return out;
 }
 
-// Fine matching (see the header): the wide and the local hypothesis, the more consistent one applied. When
-// neither has a usable first round, the prior stands.
+// Fine matching (see the header): the wide and the local hypothesis, the more consistent one applied unless
+// the prior is about as consistent. When neither has a usable first round, the prior stands.
 void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                            core::PointCloud& cloud_world, MergeTimings& timings) const {
   // The cloud's centroid where the prior puts it (fine matching starts from the prior).
@@ -262,18 +262,24 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
     logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
     return;
   }
-  logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.3f}, wide {:.3f}, "
-                "local {:.3f}), correction {}",
-                report.robot_id, use_local ? "local" : "wide", config_.consistency_distance_m * 1e3, at_prior,
-                wide.consistency, local.consistency, describe(chosen.correction));
-  core::transform_in_place(cloud_world, chosen.correction);
-  report.T_world_robot = chosen.correction * report.T_world_robot;
+  // A correction that does not fit the cloud clearly better than the prior leaves the prior (the overlap
+  // confirmed it); with the local hypothesis off, the paper's fine matching applies as it is.
+  const bool keep_prior =
+      config_.local_hypothesis && !(chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
+  const char* applied = keep_prior ? "prior" : use_local ? "local" : "wide";
+  logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.4f}, wide {:.4f}, "
+                "local {:.4f}), correction {}",
+                report.robot_id, applied, config_.consistency_distance_m * 1e3, at_prior, wide.consistency,
+                local.consistency, keep_prior ? describe(Eigen::Isometry3d::Identity()) : describe(chosen.correction));
   report.registration = chosen.registration;
-  report.refinement_rounds = chosen.rounds;
-  report.refined_overlap_points = chosen.refined_overlap_points;
-  report.hypothesis = use_local ? "local" : "wide";
+  report.hypothesis = applied;
   report.fine_matched = true;
   report.status = "fine matched";
+  if (keep_prior) return;
+  core::transform_in_place(cloud_world, chosen.correction);
+  report.T_world_robot = chosen.correction * report.T_world_robot;
+  report.refinement_rounds = chosen.rounds;
+  report.refined_overlap_points = chosen.refined_overlap_points;
 }
 
 // Each robot's finite points in the world by its prior; the robots that can be merged, in input order.

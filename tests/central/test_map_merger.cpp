@@ -201,6 +201,29 @@ TEST(MapMerger, OppositeFacesOfAThinWallDoNotPair) {
   EXPECT_LT(synthetic::pose_error(w.T_world_robot, Eigen::Isometry3d::Identity()).first, 0.25 * pulled_m);
 }
 
+// Exact priors: neither GICP result fits clearly better than the prior, which stays as it is (confirmed);
+// unweighed, the paper's fine matching moves it.
+TEST(MapMerger, AnExactPriorThatNothingFitsBetterStays) {
+  const RobotCloud a{0, synthetic::two_room_cloud(60000, {1.5f, 2.5f, 1.2f}, 0.003f, 41), Eigen::Isometry3d::Identity()};
+  const RobotCloud b{1, synthetic::two_room_cloud(60000, {4.5f, 2.5f, 1.2f}, 0.003f, 42), Eigen::Isometry3d::Identity()};
+  const MergeResult merged = MapMerger(MapMergerConfig{}).merge({a, b});
+  const RobotMergeReport& r = merged.robots[1];
+  EXPECT_EQ(r.status, "fine matched");
+  EXPECT_TRUE(r.fine_matched);
+  EXPECT_EQ(r.hypothesis, "prior");
+  EXPECT_EQ(r.refinement_rounds, 0);
+  EXPECT_GT(r.consistency_local, 0.0);
+  EXPECT_GT(r.consistency_wide, 0.0);
+  EXPECT_TRUE(r.T_world_robot.isApprox(Eigen::Isometry3d::Identity(), 0.0));
+
+  MapMergerConfig unweighed;
+  unweighed.local_hypothesis = false;
+  const RobotMergeReport& moved = MapMerger(unweighed).merge({a, b}).robots[1];
+  EXPECT_EQ(moved.hypothesis, "wide");
+  EXPECT_GT(moved.refinement_rounds, 0);
+  EXPECT_FALSE(moved.T_world_robot.isApprox(Eigen::Isometry3d::Identity(), 0.0));
+}
+
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
   // C sees x in [4.5, 6], which only B (x in [2, 5.2]) overlaps; C comes before B.
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
