@@ -149,6 +149,52 @@ TEST(MissionPlanner, ExplorationSendsARobotTowardsTheUnseenHalf) {
   EXPECT_FALSE(rig.wants_plan(0));
 }
 
+// Two patches of floor the map never sees (as the top of a bed is never seen from a camera below it)
+// stay frontiers after a robot has stood beside them; once it reached both, neither is worth another trip
+// (explore_revisit_radius_m), and without the rule it is sent back to the first.
+TEST(MissionPlanner, AFrontierStillThereWhenItsGoalWasReachedIsNotVisitedAgain) {
+  core::PointCloud map;
+  add_floor(map, 0.0, 0.0, 6.0, 4.0);
+  core::PointCloud with_holes;
+  for (const Eigen::Vector3f& p : map.points) {
+    const bool hole_a = p.x() > 1.2f && p.x() < 1.8f && p.y() > 1.7f && p.y() < 2.3f;
+    const bool hole_b = p.x() > 4.2f && p.x() < 4.8f && p.y() > 1.7f && p.y() < 2.3f;
+    if (!hole_a && !hole_b) with_holes.push_back(p);
+  }
+  add_box(with_holes, -0.05, -0.05, 6.05, -0.01, 0.0, 1.2);
+  add_box(with_holes, -0.05, 4.01, 6.05, 4.05, 0.0, 1.2);
+  add_box(with_holes, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(with_holes, 6.01, -0.05, 6.05, 4.05, 0.0, 1.2);
+  const auto run = [&](double revisit_radius_m) {
+    MissionConfig m;
+    m.kind = MissionKind::kExplore;
+    m.explore_revisit_radius_m = revisit_radius_m;
+    MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {}}});
+    std::vector<Eigen::Vector2d> goals;
+    Eigen::Vector2d position(3.0, 0.8);
+    double t_s = 0.5;
+    for (int trip = 0; trip < 3; ++trip) {
+      mission.update(t_s, with_holes, {at(position.x(), position.y())});
+      if (!mission.goal_of(0)) break;
+      goals.push_back(*mission.goal_of(0));
+      position = goals.back();
+      t_s += 5.0;
+      mission.update(t_s, with_holes, {at(position.x(), position.y(), 0.0, true)});  // there: reached
+      t_s += 5.0;
+    }
+    return std::make_pair(goals, mission.reports()[0]);
+  };
+  const auto [goals, report] = run(0.6);
+  ASSERT_EQ(goals.size(), 2u) << "one trip to each patch";
+  EXPECT_GT((goals[0] - goals[1]).norm(), 2.0);
+  EXPECT_EQ(report.goals_reached, 2);
+  EXPECT_EQ(report.status, "no reachable frontier left");
+
+  const auto [again, unruled] = run(0.0);
+  ASSERT_EQ(again.size(), 3u);
+  EXPECT_LT((again[2] - again[0]).norm(), 0.3) << "back to the first patch";
+}
+
 TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
   // Another robot's camera saw robot a standing at (1, 2): a box in the map there.
   core::PointCloud map = room(6.0, 4.0);

@@ -180,6 +180,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached", s.goal_world->x(), s.goal_world->y());
       event(r, t_s, what);
       if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
+      if (mission_.kind == MissionKind::kExplore) reached_goals_world_.push_back(*s.goal_world);
       s.goal_world.reset();
       s.failures_for_goal = 0;
       s.has_path = false;
@@ -267,6 +268,9 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     bool free_goal = true;
     for (const Eigen::Vector2d& t : taken) free_goal = free_goal && (g - t).norm() > planning_.assignment.separation_m;
     for (const Eigen::Vector2d& a : abandoned_goals_world_) free_goal = free_goal && (g - a).norm() > mission_.goal_reached_m;
+    for (const Eigen::Vector2d& v : reached_goals_world_) {
+      free_goal = free_goal && (g - v).norm() >= mission_.explore_revisit_radius_m;
+    }
     // The rim of the floor a robot stands on (its own footprint next to the unseen floor below its
     // camera) is a frontier too, but not a place to go.
     for (std::size_t r = 0; r < robots_.size(); ++r) {

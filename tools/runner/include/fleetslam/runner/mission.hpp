@@ -126,6 +126,7 @@ class MissionPlanner {
   std::vector<RobotMission> state_;
   std::vector<MissionRobotReport> reports_;
   std::vector<Eigen::Vector2d> abandoned_goals_world_;  // explore: frontier goals given up
+  std::vector<Eigen::Vector2d> reached_goals_world_;    // explore: frontier goals a robot reached
 };
 
 }  // namespace fleetslam::runner

@@ -50,7 +50,12 @@ struct MissionConfig {
   double start_snap_radius_m = 0.5;  // a start inside the inflated obstacles moves to the nearest free cell
   double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
-  double explore_min_goal_distance_m = 1.0;
+  double explore_min_goal_distance_m = 1.0;  // frontier goals nearer a ground robot are not worth a trip
+  // Explore: frontier goals this close to one a robot has reached are not worth another trip (0: off). A
+  // frontier still there when a robot stands at it cannot be seen from the floor: the top of a bed taller
+  // than the camera borders free floor all round, and a robot sent back to it again and again spent
+  // 60 of the apartment's 120 s beside it.
+  double explore_revisit_radius_m = 0.6;
   // Explore: a frontier's goal is the cell nearest it this far from obstacles (seen ones: a frontier
   // borders unknown floor by definition) (0: any cell the robot fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
   // a wall sees nothing an agent can track (depth below its range, a patch of bare texture).
@@ -59,7 +64,7 @@ struct MissionConfig {
   // more, up to max_look_arounds times until it gets a frontier again. 0 (default): it waits. Turning on
   // the spot in front of a bare wall can cost an agent its tracking.
   double look_around_step_m = 0.0;
-  int max_look_arounds = 8;  // frontier goals nearer a ground robot are not worth a trip
+  int max_look_arounds = 8;
 
   template <class V>
   void visit(V& v) {
@@ -76,6 +81,7 @@ struct MissionConfig {
     v("lost_backtrack_m", lost_backtrack_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_valid_m", explore_goal_valid_m, core::Limits<double>{0.0, 100.0});
     v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
+    v("explore_revisit_radius_m", explore_revisit_radius_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_clearance_m", explore_goal_clearance_m, core::Limits<double>{0.0, 10.0});
     v("look_around_step_m", look_around_step_m, core::Limits<double>{0.0, 10.0});
     v("max_look_arounds", max_look_arounds, core::Limits<int>{0, 1000});
