@@ -51,11 +51,12 @@ struct MissionConfig {
   double lost_backtrack_m = 0.6;    // a robot that lost tracking drives back this far along its trail (0: stops)
   double explore_goal_valid_m = 1.0;  // an exploration goal stays while a frontier cell is this close
   double explore_min_goal_distance_m = 1.0;  // frontier goals nearer a ground robot are not worth a trip
-  // Explore: frontier goals this close to one a robot has reached are not worth another trip (0: off). A
-  // frontier still there when a robot stands at it cannot be seen from the floor: the top of a bed taller
-  // than the camera borders free floor all round, and a robot sent back to it again and again spent
-  // 60 of the apartment's 120 s beside it.
-  double explore_revisit_radius_m = 0.6;
+  // Explore: frontier goals this close to one a robot has reached are not worth another trip (0, the
+  // default: off). With free-space carving (OccupancyGridConfig::carve_rays), a frontier still there when
+  // a robot stands at it cannot be seen from the floor: the top of a bed taller than the camera borders
+  // free floor all round, and a robot sent back to it again and again spent 60 of the apartment's 120 s
+  // beside it. Without carving, a robot that arrived facing away may still see it from another heading.
+  double explore_revisit_radius_m = 0.0;
   // Explore: a frontier's goal is the cell nearest it this far from obstacles (seen ones: a frontier
   // borders unknown floor by definition) (0: any cell the robot fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
   // a wall sees nothing an agent can track (depth below its range, a patch of bare texture).
