@@ -126,7 +126,7 @@ namespace {
 // nearest to; points without a normal count with the vertical ones) and averaged over the orientations
 // that hold at least kMinOrientationShare of the points. The floor is most of an indoor overlap and stays
 // consistent under a wrong yaw or a shift along it: alone it would decide.
-constexpr std::size_t kMaxConsistencyPoints = 20000;
+constexpr std::size_t kMaxConsistencyPoints = 10000;
 constexpr double kMinOrientationShare = 0.05;
 
 double consistency(const core::PointCloud& source, const core::PointCloud& target, const KdTree& target_tree,
@@ -232,11 +232,18 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   std::vector<detail::Round> wide_rounds{{&registration_, false}};
   for (int round = 2; round <= config_.refinement_rounds; ++round) wide_rounds.push_back({&registration_, true});
   detail::Refinement wide = refine(wide_rounds, "wide", report.robot_id, coarse, merged, cloud_world, centroid_prior, timings);
-  detail::Refinement local;
-  if (config_.local_hypothesis) {
-    local = refine({{&local_registration_, false}}, "local", report.robot_id, coarse, merged, cloud_world, centroid_prior,
-                   timings);
+  if (wide.rounds > 0 || !config_.local_hypothesis) report.registration = wide.registration;
+  if (!config_.local_hypothesis) {  // the paper's fine matching, unweighed
+    if (wide.rounds == 0) {
+      report.status = "registration discarded (" + wide.failure + "): prior kept";
+      logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+      return;
+    }
+    apply(wide, "wide", report, cloud_world);
+    return;
   }
+  detail::Refinement local = refine({{&local_registration_, false}}, "local", report.robot_id, coarse, merged,
+                                    cloud_world, centroid_prior, timings);
   // Both scored on the robot's whole cloud against the whole merged cloud: the coarse sets were chosen
   // under the prior, and scored on them the prior looks better than the truth (seen with the office's
   // 10 cm + 5 degree prior error: 0.49 at the prior, 0.35 at the wide result 9 mm from the truth).
@@ -257,29 +264,39 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   const bool use_local = local.rounds > 0 && local.consistency >= wide.consistency;
   const detail::Refinement& chosen = use_local ? local : wide;
   if (chosen.rounds == 0) {
-    report.registration = wide.registration;
     report.status = "registration discarded (" + wide.failure + "): prior kept";
     logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
     return;
   }
   // A correction that does not fit the cloud clearly better than the prior leaves the prior (the overlap
-  // confirmed it); with the local hypothesis off, the paper's fine matching applies as it is.
-  const bool keep_prior =
-      config_.local_hypothesis && !(chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
+  // confirmed it).
+  const bool keep_prior = !(chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
   const char* applied = keep_prior ? "prior" : use_local ? "local" : "wide";
   logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.4f}, wide {:.4f}, "
                 "local {:.4f}), correction {}",
                 report.robot_id, applied, config_.consistency_distance_m * 1e3, at_prior, wide.consistency,
                 local.consistency, keep_prior ? describe(Eigen::Isometry3d::Identity()) : describe(chosen.correction));
-  report.registration = chosen.registration;
-  report.hypothesis = applied;
-  report.fine_matched = true;
-  report.status = "fine matched";
-  if (keep_prior) return;
+  if (keep_prior) {
+    report.registration = chosen.registration;
+    report.hypothesis = applied;
+    report.fine_matched = true;
+    report.status = "fine matched";
+    return;
+  }
+  apply(chosen, applied, report, cloud_world);
+}
+
+// Moves the cloud and the robot's placement by the hypothesis's correction.
+void MapMerger::apply(const detail::Refinement& chosen, const char* hypothesis, RobotMergeReport& report,
+                      core::PointCloud& cloud_world) const {
   core::transform_in_place(cloud_world, chosen.correction);
   report.T_world_robot = chosen.correction * report.T_world_robot;
+  report.registration = chosen.registration;
   report.refinement_rounds = chosen.rounds;
   report.refined_overlap_points = chosen.refined_overlap_points;
+  report.hypothesis = hypothesis;
+  report.fine_matched = true;
+  report.status = "fine matched";
 }
 
 // Each robot's finite points in the world by its prior; the robots that can be merged, in input order.
