@@ -200,6 +200,39 @@ TEST(PathPlanner, SimplificationShortensThePath) {
   EXPECT_LT(simplified.length_m, 9.5);
 }
 
+// A wall at x in [2.9, 3.1] with a 1 m doorway (y in [1.5, 2.5]), start and goal below it: the shortest
+// path grazes the lower jamb's inflation; with preferred_clearance_m it crosses near the doorway's middle,
+// clear of both jambs, and ends where it did.
+TEST(PathPlanner, APreferredClearanceCentresThePathInADoorway) {
+  const OccupancyGrid grid = make_grid(6.0, 4.0, [](const Eigen::Vector2d& c) {
+    return c.x() > 2.9 && c.x() < 3.1 && (c.y() < 1.5 || c.y() > 2.5);
+  });
+  const auto crossing_y = [](const PlanResult& r) {
+    for (std::size_t i = 1; i < r.path_world.size(); ++i) {
+      const Pose2d& a = r.path_world[i - 1];
+      const Pose2d& b = r.path_world[i];
+      if ((a.x_m - 3.0) * (b.x_m - 3.0) <= 0.0 && a.x_m != b.x_m) return a.y_m + (b.y_m - a.y_m) * (3.0 - a.x_m) / (b.x_m - a.x_m);
+    }
+    return -1.0;
+  };
+  PathPlannerConfig c;
+  const PlanResult tight = PathPlanner(c).plan(grid, Pose2d{1.0, 0.6, 0.0}, {5.0, 0.6});
+  c.preferred_clearance_m = 0.45;
+  const PlanResult clear = PathPlanner(c).plan(grid, Pose2d{1.0, 0.6, 0.0}, {5.0, 0.6});
+  ASSERT_EQ(tight.status, PlanStatus::kSolved);
+  ASSERT_EQ(clear.status, PlanStatus::kSolved);
+  EXPECT_LT(crossing_y(tight), 1.8) << "the shortest way hugs the lower jamb's inflation (1.7)";
+  EXPECT_NEAR(crossing_y(clear), 2.0, 0.1);
+  EXPECT_EQ(first_blocked_pose(grid, clear.path_world, UnknownCells::kOccupied), -1);
+  EXPECT_EQ(clear.path_world.front().xy(), tight.path_world.front().xy());
+  EXPECT_EQ(clear.path_world.back().xy(), tight.path_world.back().xy());
+  // Nowhere closer to an obstacle than the tight path's closest pose, and in the open unchanged in spirit.
+  double min_tight = 1e9, min_clear = 1e9;
+  for (const Pose2d& p : tight.path_world) min_tight = std::min(min_tight, grid.clearance_m(*grid.cell_of(p.xy()), UnknownCells::kOccupied));
+  for (const Pose2d& p : clear.path_world) min_clear = std::min(min_clear, grid.clearance_m(*grid.cell_of(p.xy()), UnknownCells::kOccupied));
+  EXPECT_GT(min_clear, min_tight + 0.1);
+}
+
 TEST(PathPlanner, ConfigFromYaml) {
   const auto reader = core::ConfigReader::from_string(
       "planner: rrt_star\nstate_space: dubins\nturning_radius_m: 0.5\nunknown_cells: free\nmax_iterations: 100\n",

@@ -57,6 +57,9 @@ struct PathPlannerConfig {
   double goal_snap_radius_m = 0.0;
   bool check_reachability = true;         // flood fill before sampling (see the file comment)
   double path_step_m = 0.05;              // spacing of the returned path's poses
+  // > 0: the path's interior is moved away from obstacles up to this clearance (from the nearest obstacle
+  // cell, as OccupancyGrid::clearance_m) where the space allows; 0: the simplified path as it is.
+  double preferred_clearance_m = 0.0;
 
   template <class V>
   void visit(V& v) {
@@ -77,6 +80,7 @@ struct PathPlannerConfig {
     v("goal_snap_radius_m", goal_snap_radius_m, core::Limits<double>{0.0, 100.0});
     v("check_reachability", check_reachability);
     v("path_step_m", path_step_m, core::Limits<double>{1e-3, 10.0});
+    v("preferred_clearance_m", preferred_clearance_m, core::Limits<double>{0.0, 10.0});
   }
 };
 
