@@ -232,14 +232,8 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   std::vector<detail::Round> wide_rounds{{&registration_, false}};
   for (int round = 2; round <= config_.refinement_rounds; ++round) wide_rounds.push_back({&registration_, true});
   detail::Refinement wide = refine(wide_rounds, "wide", report.robot_id, coarse, merged, cloud_world, centroid_prior, timings);
-  if (wide.rounds > 0 || !config_.local_hypothesis) report.registration = wide.registration;
   if (!config_.local_hypothesis) {  // the paper's fine matching, unweighed
-    if (wide.rounds == 0) {
-      report.status = "registration discarded (" + wide.failure + "): prior kept";
-      logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
-      return;
-    }
-    apply(wide, "wide", report, cloud_world);
+    apply(wide, "wide", /*move=*/true, report, cloud_world);
     return;
   }
   detail::Refinement local = refine({{&local_registration_, false}}, "local", report.robot_id, coarse, merged,
@@ -263,40 +257,38 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   // Ties go to the local hypothesis: the prior, polished.
   const bool use_local = local.rounds > 0 && local.consistency >= wide.consistency;
   const detail::Refinement& chosen = use_local ? local : wide;
-  if (chosen.rounds == 0) {
-    report.status = "registration discarded (" + wide.failure + "): prior kept";
-    logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
-    return;
-  }
   // A correction that does not fit the cloud clearly better than the prior leaves the prior (the overlap
   // confirmed it).
   const bool keep_prior = !(chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
   const char* applied = keep_prior ? "prior" : use_local ? "local" : "wide";
-  logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.4f}, wide {:.4f}, "
-                "local {:.4f}), correction {}",
-                report.robot_id, applied, config_.consistency_distance_m * 1e3, at_prior, wide.consistency,
-                local.consistency, keep_prior ? describe(Eigen::Isometry3d::Identity()) : describe(chosen.correction));
-  if (keep_prior) {
-    report.registration = chosen.registration;
-    report.hypothesis = applied;
-    report.fine_matched = true;
-    report.status = "fine matched";
-    return;
+  if (chosen.rounds > 0) {
+    logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.4f}, wide {:.4f}, "
+                  "local {:.4f}), correction {}",
+                  report.robot_id, applied, config_.consistency_distance_m * 1e3, at_prior, wide.consistency,
+                  local.consistency, keep_prior ? describe(Eigen::Isometry3d::Identity()) : describe(chosen.correction));
   }
-  apply(chosen, applied, report, cloud_world);
+  apply(chosen, applied, !keep_prior, report, cloud_world);  // with no usable round, chosen is wide
 }
 
-// Moves the cloud and the robot's placement by the hypothesis's correction.
-void MapMerger::apply(const detail::Refinement& chosen, const char* hypothesis, RobotMergeReport& report,
+// The outcome of fine matching: a hypothesis without a usable first round leaves the prior (status
+// "registration discarded"); otherwise the robot is fine matched, and with `move` its cloud and placement
+// take the hypothesis's correction (without, the prior is confirmed and stays).
+void MapMerger::apply(const detail::Refinement& chosen, const char* hypothesis, bool move, RobotMergeReport& report,
                       core::PointCloud& cloud_world) const {
-  core::transform_in_place(cloud_world, chosen.correction);
-  report.T_world_robot = chosen.correction * report.T_world_robot;
   report.registration = chosen.registration;
-  report.refinement_rounds = chosen.rounds;
-  report.refined_overlap_points = chosen.refined_overlap_points;
+  if (chosen.rounds == 0) {
+    report.status = "registration discarded (" + chosen.failure + "): prior kept";
+    logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
+    return;
+  }
   report.hypothesis = hypothesis;
   report.fine_matched = true;
   report.status = "fine matched";
+  if (!move) return;
+  core::transform_in_place(cloud_world, chosen.correction);
+  report.T_world_robot = chosen.correction * report.T_world_robot;
+  report.refinement_rounds = chosen.rounds;
+  report.refined_overlap_points = chosen.refined_overlap_points;
 }
 
 // Each robot's finite points in the world by its prior; the robots that can be merged, in input order.

@@ -42,56 +42,41 @@ Prepared prepare(const core::PointCloud& cloud, double voxel_size_m) {
   return Prepared{std::move(kept.points), std::move(kept.normals)};
 }
 
-// GICP's plane-to-plane covariances (Segal et al. section III-B): the covariance of the k nearest points,
-// its eigenvalues replaced by (epsilon, 1, 1).
-std::vector<Eigen::Matrix3d> plane_covariances(const std::vector<Eigen::Vector3f>& points, const KdTree& tree,
-                                               int neighbours, double epsilon) {
-  std::vector<Eigen::Matrix3d> covariances(points.size());
-  std::vector<Neighbour> near;
+// GICP's plane-to-plane covariance of point i (Segal et al. section III-B): the covariance of its k
+// nearest points, its eigenvalues replaced by (epsilon, 1, 1), into `covariance`. `near` is scratch space.
+void neighbours_plane(const std::vector<Eigen::Vector3f>& points, const KdTree& tree, std::size_t i, int neighbours,
+                      double epsilon, std::vector<Neighbour>& near, Eigen::Matrix3d& covariance) {
+  tree.knn(points[i], static_cast<std::size_t>(neighbours), std::numeric_limits<float>::infinity(), near);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Neighbour& n : near) mean += points[n.index].cast<double>();
+  mean /= static_cast<double>(near.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Neighbour& n : near) {
+    const Eigen::Vector3d d = points[n.index].cast<double>() - mean;
+    scatter += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);  // eigenvalues ascending
+  const Eigen::Matrix3d& U = solver.eigenvectors();
   const Eigen::Vector3d flattened(epsilon, 1.0, 1.0);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    tree.knn(points[i], static_cast<std::size_t>(neighbours), std::numeric_limits<float>::infinity(), near);
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const Neighbour& n : near) mean += points[n.index].cast<double>();
-    mean /= static_cast<double>(near.size());
-    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    for (const Neighbour& n : near) {
-      const Eigen::Vector3d d = points[n.index].cast<double>() - mean;
-      scatter += d * d.transpose();
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);  // eigenvalues ascending
-    const Eigen::Matrix3d& U = solver.eigenvectors();
-    covariances[i] = U * flattened.asDiagonal() * U.transpose();
-  }
-  return covariances;
+  covariance = U * flattened.asDiagonal() * U.transpose();
 }
 
-// The plane covariances about the points' own normals: C = epsilon n n^T + (I - n n^T). Points without a
-// normal (zero, or a set without normals) take their neighbours' plane.
-std::vector<Eigen::Matrix3d> normal_covariances(const Prepared& set, const KdTree& tree, int neighbours, double epsilon) {
-  if (set.normals.empty()) return plane_covariances(set.points, tree, neighbours, epsilon);
-  std::vector<Eigen::Matrix3d> covariances(set.points.size());
-  std::vector<std::size_t> without_normal;
-  for (std::size_t i = 0; i < set.points.size(); ++i) {
-    const Eigen::Vector3d n = set.normals[i].cast<double>();
-    if (!(n.squaredNorm() > 0.25)) {  // unit normals, or zero where unknown
-      without_normal.push_back(i);
-      continue;
-    }
-    const Eigen::Vector3d u = n.normalized();
-    covariances[i] = Eigen::Matrix3d::Identity() - (1.0 - epsilon) * u * u.transpose();
-  }
-  if (!without_normal.empty()) {
-    const std::vector<Eigen::Matrix3d> fallback = plane_covariances(set.points, tree, neighbours, epsilon);
-    for (const std::size_t i : without_normal) covariances[i] = fallback[i];
-  }
-  return covariances;
-}
-
+// Each point's plane covariance: about its own normal (config.covariance normals, the point has one:
+// C = epsilon n n^T + (I - n n^T)), otherwise about its neighbours' plane.
 std::vector<Eigen::Matrix3d> covariances(const Prepared& set, const KdTree& tree, const RegistrationConfig& config) {
-  return config.covariance == PlaneCovariance::kNormals
-             ? normal_covariances(set, tree, config.covariance_neighbours, config.plane_epsilon)
-             : plane_covariances(set.points, tree, config.covariance_neighbours, config.plane_epsilon);
+  const bool from_normals = config.covariance == PlaneCovariance::kNormals && !set.normals.empty();
+  std::vector<Eigen::Matrix3d> covariances(set.points.size());
+  std::vector<Neighbour> near;
+  for (std::size_t i = 0; i < set.points.size(); ++i) {
+    const Eigen::Vector3d n = from_normals ? Eigen::Vector3d(set.normals[i].cast<double>()) : Eigen::Vector3d::Zero();
+    if (n.squaredNorm() > 0.25) {  // unit normals, or zero where unknown
+      const Eigen::Vector3d u = n.normalized();
+      covariances[i] = Eigen::Matrix3d::Identity() - (1.0 - config.plane_epsilon) * u * u.transpose();
+    } else {
+      neighbours_plane(set.points, tree, i, config.covariance_neighbours, config.plane_epsilon, near, covariances[i]);
+    }
+  }
+  return covariances;
 }
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {

@@ -182,7 +182,7 @@ class MapMerger {
              core::PointCloud& cloud_world, MergeResult& result) const;
   void fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                   core::PointCloud& cloud_world, MergeTimings& timings) const;
-  void apply(const detail::Refinement& chosen, const char* hypothesis, RobotMergeReport& report,
+  void apply(const detail::Refinement& chosen, const char* hypothesis, bool move, RobotMergeReport& report,
              core::PointCloud& cloud_world) const;
   detail::Refinement refine(const std::vector<detail::Round>& rounds, const char* hypothesis, int robot_id, const Overlap& coarse,
                             const core::PointCloud& merged, const core::PointCloud& cloud_world,
