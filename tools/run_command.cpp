@@ -93,6 +93,7 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   options.scenario_name = fs::path(o.scenario).filename().string();
   options.prior_error = o.prior_error;
   options.truth_spacing_m = o.truth_spacing_m;
+  options.threads = o.threads;
   runner::Runner run(config, options, logger);
   const bool show = !global.quiet;
   const runner::RunOutcome outcome = run.run([show](const runner::RunProgress& p) {
@@ -126,7 +127,8 @@ void add_run_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--seed", options->seed, "Seed (default: the scenario's)");
   cmd->add_option("--duration", options->duration_s, "Seconds to simulate (default: the scenario's)")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", options->threads,
-                  "1: deterministic (everything inline, bit-identical repeats); more: agents map on worker threads")
+                  "1: deterministic (everything inline, bit-identical repeats); more: agents map on worker threads and "
+                  "the robots' agents track a camera tick's frames concurrently")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
   cmd->add_option("--agent-config", options->agent_config, "Agent config YAML for every robot (over the scenario's agent section)");

@@ -68,6 +68,25 @@ TEST(RunCli, TwoRobotOfficeRunIsJudgedAgainstTruth) {
   EXPECT_EQ(core::read_trajectory(out / "bravo" / "groundtruth.txt").size(), 90u);
 }
 
+// With --threads 2 the robots' agents track each camera tick's frames concurrently (and map on workers):
+// every robot still gets each of its frames once and in order, and tracks them as well as inline.
+TEST(RunCli, ThreadedRunTracksEveryFrameOfEveryRobot) {
+  const fs::path out = test_dir() / "threaded";
+  const RunResult r = run("-q run '" + kOffice.string() + "' --duration 3 --threads 2 --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
+  ASSERT_EQ(metrics["robots"].size(), 2u);
+  for (const nlohmann::json& robot : metrics["robots"]) {
+    EXPECT_EQ(robot["frames"], 90) << robot.dump();
+    EXPECT_EQ(robot["tracked"], 90) << robot.dump();
+    EXPECT_LT(robot["ate_se3_m"]["rmse"].get<double>(), 0.01) << robot.dump();
+    const std::string name = robot["name"].get<std::string>();
+    const core::Trajectory estimated = core::read_trajectory(out / name / "trajectory.txt");
+    ASSERT_EQ(estimated.size(), 90u) << name;
+    for (std::size_t i = 1; i < estimated.size(); ++i) EXPECT_LT(estimated[i - 1].t_ns, estimated[i].t_ns) << name;
+  }
+}
+
 // A criterion that cannot hold fails the run: exit 1, one line naming it, and the verdict in the outputs.
 TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   const fs::path dir = test_dir();

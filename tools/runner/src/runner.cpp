@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <fstream>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -156,6 +158,57 @@ struct RobotRun {
   nlohmann::json collision_events = nlohmann::json::array();
 };
 
+// Each frame through its robot's agent, in order: the updates, one per frame. With threads > 1 and
+// frames of different robots, the robots' agents process them concurrently (each agent's frames still in
+// order); agents share nothing mutable, and the updates come back in frame order either way.
+std::vector<slam::AgentUpdate> process_frames(std::vector<RobotRun>& robots, const std::vector<core::SensorFrame>& frames,
+                                              int threads) {
+  std::vector<slam::AgentUpdate> updates(frames.size());
+  // Frame indices per robot, robots in order of first appearance.
+  std::vector<std::vector<std::size_t>> per_robot;
+  std::vector<int> robot_of_group;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const auto it = std::find(robot_of_group.begin(), robot_of_group.end(), frames[f].robot_id);
+    if (it == robot_of_group.end()) {
+      robot_of_group.push_back(frames[f].robot_id);
+      per_robot.push_back({f});
+    } else {
+      per_robot[static_cast<std::size_t>(it - robot_of_group.begin())].push_back(f);
+    }
+  }
+  const auto run_group = [&](std::size_t g) {
+    for (std::size_t f : per_robot[g]) {
+      updates[f] = robots.at(static_cast<std::size_t>(frames[f].robot_id)).agent->process(frames[f]);
+    }
+  };
+  const std::size_t workers = std::min(per_robot.size(), static_cast<std::size_t>(std::max(1, threads)));
+  if (workers <= 1) {
+    for (std::size_t g = 0; g < per_robot.size(); ++g) run_group(g);
+    return updates;
+  }
+  // Groups g, g + workers, ... on worker w (worker 0 is this thread); an exception is rethrown here.
+  std::vector<std::future<void>> running;
+  const auto run_share = [&](std::size_t w) {
+    for (std::size_t g = w; g < per_robot.size(); g += workers) run_group(g);
+  };
+  for (std::size_t w = 1; w < workers; ++w) running.push_back(std::async(std::launch::async, run_share, w));
+  std::exception_ptr first_error;
+  try {
+    run_share(0);
+  } catch (...) {
+    first_error = std::current_exception();
+  }
+  for (std::future<void>& r : running) {
+    try {
+      r.get();
+    } catch (...) {
+      if (!first_error) first_error = std::current_exception();
+    }
+  }
+  if (first_error) std::rethrow_exception(first_error);
+  return updates;
+}
+
 }  // namespace
 
 Runner::Runner(RunScenarioConfig config, RunnerOptions options, core::Logger logger)
@@ -268,7 +321,8 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   };
 
   while (!world.finished()) {
-    for (core::SensorFrame& frame : world.step()) {
+    std::vector<core::SensorFrame> frames = world.step();
+    for (core::SensorFrame& frame : frames) {
       RobotRun& robot = robots.at(static_cast<std::size_t>(frame.robot_id));
       if (!robot.T_world_robot_true) {
         FLEETSLAM_CHECK(frame.T_world_cam_gt.has_value(), "simulated frames carry ground truth");
@@ -280,8 +334,13 @@ RunOutcome Runner::run(const ProgressSink& progress) {
                                             central::RobotBody{robot.T_body_cam.inverse(), body.radius_m, body.z_min_m, body.z_max_m}});
       }
       if (frame.T_world_cam_gt) robot.groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
+    }
+    std::vector<slam::AgentUpdate> updates = process_frames(robots, frames, options_.threads);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const core::SensorFrame& frame = frames[f];
+      RobotRun& robot = robots.at(static_cast<std::size_t>(frame.robot_id));
       const double t_s = core::ns_to_seconds(frame.t_ns);
-      slam::AgentUpdate update = robot.agent->process(frame);
+      slam::AgentUpdate& update = updates[f];
       if (update.T_world_cam) {
         robot.T_map_cam = *update.T_world_cam;
         robot.map_component = update.component;

@@ -37,6 +37,10 @@ struct RunnerOptions {
   std::string scenario_name;        // for the report (the scenario file's name)
   std::vector<double> prior_error;  // dx dy dz (m) yaw (deg) for robots after the first, or empty
   double truth_spacing_m = 0.01;    // spacing of the true-surface samples maps are judged against
+  // 1: every agent processes its frame on this thread, in robot order. More: the robots' agents process
+  // a camera tick's frames concurrently, on up to this many threads (throughput; with threaded agents the
+  // run is not repeatable anyway).
+  int threads = 1;
 };
 
 // What the progress display shows, about once per simulated second.
