@@ -2,16 +2,25 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "fleetslam/core/error.hpp"
 
 namespace fleetslam::planners {
 
 GoalAssignment GoalAssigner::assign(const std::vector<Eigen::Vector2d>& robots_world,
-                                    const std::vector<Eigen::Vector2d>& goals_world, const OccupancyGrid* grid) const {
+                                    const std::vector<Eigen::Vector2d>& goals_world, const OccupancyGrid* grid,
+                                    const std::vector<double>& gains_m2) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (config_.cost == AssignmentCost::kGridPath && grid == nullptr) {
     throw InputError("goal_assignment.cost", "grid_path needs an occupancy grid");
+  }
+  if (!gains_m2.empty() && gains_m2.size() != goals_world.size()) {
+    throw InputError("goal assignment", "gains: " + std::to_string(gains_m2.size()) + " for " +
+                                            std::to_string(goals_world.size()) + " goals");
+  }
+  for (double gain : gains_m2) {
+    if (!(std::isfinite(gain) && gain >= 0.0)) throw InputError("goal assignment", "a gain is negative or not finite");
   }
   const std::size_t nr = robots_world.size();
   const std::size_t ng = goals_world.size();
@@ -44,7 +53,8 @@ GoalAssignment GoalAssigner::assign(const std::vector<Eigen::Vector2d>& robots_w
           const double d = (a - goals_world[g]).norm();
           if (d < config_.separation_m) penalty += config_.separation_penalty_m * (1.0 - d / config_.separation_m);
         }
-        const double cost = travel[r][g] + penalty;
+        const double gain = gains_m2.empty() ? 0.0 : config_.gain_weight_m_per_m2 * gains_m2[g];
+        const double cost = travel[r][g] + penalty - gain;
         if (cost < best) {
           best = cost;
           best_r = static_cast<int>(r);

@@ -309,6 +309,37 @@ std::optional<Eigen::Vector2d> nearest_cell_centre(const OccupancyGrid& grid, co
   return best;
 }
 
+bool line_of_sight(const OccupancyGrid& grid, const Eigen::Vector2d& a_world, const Eigen::Vector2d& b_world) {
+  if (!a_world.allFinite() || !b_world.allFinite()) return false;
+  const double length_m = (b_world - a_world).norm();
+  const int steps = std::max(1, static_cast<int>(std::ceil(length_m / (0.5 * grid.resolution_m()))));
+  for (int i = 0; i <= steps; ++i) {
+    const Eigen::Vector2d p = a_world + (b_world - a_world) * (static_cast<double>(i) / steps);
+    const std::optional<CellIndex> cell = grid.cell_of(p);
+    if (cell && grid.state(*cell) == CellState::kOccupied) return false;
+  }
+  return true;
+}
+
+double unknown_area_in_sight_m2(const OccupancyGrid& grid, const Eigen::Vector2d& p_world, double radius_m) {
+  if (!p_world.allFinite() || !(radius_m > 0.0) || !std::isfinite(radius_m)) return 0.0;
+  const double res = grid.resolution_m();
+  const Eigen::Vector2d rel = (p_world - grid.origin_world()) / res;
+  const int r = static_cast<int>(std::ceil(radius_m / res)) + 1;
+  const int cx = static_cast<int>(std::floor(rel.x()));
+  const int cy = static_cast<int>(std::floor(rel.y()));
+  std::size_t cells = 0;
+  for (int y = std::max(0, cy - r); y <= std::min(grid.height() - 1, cy + r); ++y) {
+    for (int x = std::max(0, cx - r); x <= std::min(grid.width() - 1, cx + r); ++x) {
+      const CellIndex cell{x, y};
+      if (grid.state(cell) != CellState::kUnknown) continue;
+      const Eigen::Vector2d c = grid.center_of(cell);
+      if ((c - p_world).norm() <= radius_m && line_of_sight(grid, p_world, c)) ++cells;
+    }
+  }
+  return static_cast<double>(cells) * res * res;
+}
+
 std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
                                                    double radius_m, UnknownCells unknown) {
   if (!p_world.allFinite()) return std::nullopt;

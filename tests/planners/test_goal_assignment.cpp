@@ -1,5 +1,6 @@
 // GoalAssigner: distinct goals, nearest first, separation penalty, unreachable goals, determinism.
 
+#include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -43,6 +44,27 @@ TEST(GoalAssigner, PenaltySpreadsRobotsOverFrontiers) {
   c.separation_m = 2.0;
   const GoalAssignment spread = GoalAssigner(c).assign(robots, goals);
   EXPECT_EQ(spread.goal_of_robot, (std::vector<int>{0, 2}));
+}
+
+// With a gain weight, a goal that shows more unknown floor is worth its longer trip; without one, or
+// without gains, the nearest goal wins. Gains that do not fit the goals are input errors.
+TEST(GoalAssigner, GainsWeighAgainstTravel) {
+  const std::vector<Eigen::Vector2d> robots{{0.0, 0.0}};
+  const std::vector<Eigen::Vector2d> goals{{1.0, 0.0}, {4.0, 0.0}};
+  const std::vector<double> gains_m2{0.2, 4.0};
+  GoalAssignmentConfig c;
+  c.cost = AssignmentCost::kStraightLine;
+  EXPECT_EQ(GoalAssigner(c).assign(robots, goals, nullptr, gains_m2).goal_of_robot, (std::vector<int>{0}));
+  c.gain_weight_m_per_m2 = 1.0;  // 1 - 0.2 against 4 - 4
+  const GoalAssignment a = GoalAssigner(c).assign(robots, goals, nullptr, gains_m2);
+  EXPECT_EQ(a.goal_of_robot, (std::vector<int>{1}));
+  EXPECT_DOUBLE_EQ(a.cost_m[0], 4.0) << "the reported cost is the travel";
+  EXPECT_EQ(GoalAssigner(c).assign(robots, goals).goal_of_robot, (std::vector<int>{0}));
+  c.gain_weight_m_per_m2 = 0.5;  // 1 - 0.1 against 4 - 2
+  EXPECT_EQ(GoalAssigner(c).assign(robots, goals, nullptr, gains_m2).goal_of_robot, (std::vector<int>{0}));
+  EXPECT_THROW(GoalAssigner(c).assign(robots, goals, nullptr, {1.0}), InputError);
+  EXPECT_THROW(GoalAssigner(c).assign(robots, goals, nullptr, {1.0, -1.0}), InputError);
+  EXPECT_THROW(GoalAssigner(c).assign(robots, goals, nullptr, {1.0, std::nan("")}), InputError);
 }
 
 TEST(GoalAssigner, GridPathCostAndFrontierGoals) {

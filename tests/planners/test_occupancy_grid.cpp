@@ -492,6 +492,61 @@ TEST(OccupancyGrid, NearestTraversableMatchesBruteForce) {
   EXPECT_FALSE(nearest_traversable(grid, {std::nan(""), 0.0}, 1.0, UnknownCells::kOccupied));
 }
 
+// line_of_sight against a brute-force oracle: a segment is blocked exactly when some occupied cell's
+// square meets it (dense sampling), up to the half-cell sampling at a square's corners.
+TEST(OccupancyGrid, LineOfSightIsBlockedOnlyByOccupiedCells) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {-1.0, -1.0, 5.0, 5.0};
+  OccupancyGrid grid(config);
+  grid.update(furnished_room());
+  EXPECT_TRUE(line_of_sight(grid, {0.5, 0.5}, {3.5, 0.5}));     // along the free floor
+  EXPECT_FALSE(line_of_sight(grid, {1.0, 1.75}, {2.5, 1.75}));  // through the box
+  EXPECT_FALSE(line_of_sight(grid, {2.0, 2.0}, {2.0, 4.5}));    // through the north wall
+  EXPECT_TRUE(line_of_sight(grid, {-0.5, -0.5}, {-0.5, 4.5}));  // unknown cells outside the room let it through
+  EXPECT_TRUE(line_of_sight(grid, {1.0, 1.0}, {1.0, 1.0}));     // a point sees itself
+  EXPECT_FALSE(line_of_sight(grid, {1.0, 1.0}, {std::nan(""), 1.0}));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coordinate(-0.5, 4.5);
+  int blocked = 0, corners_missed = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const Eigen::Vector2d a(coordinate(rng), coordinate(rng));
+    const Eigen::Vector2d b(coordinate(rng), coordinate(rng));
+    bool oracle = true;
+    const int samples = 4000;
+    for (int i = 0; i <= samples && oracle; ++i) {
+      const auto cell = grid.cell_of(a + (b - a) * (static_cast<double>(i) / samples));
+      oracle = !(cell && grid.state(*cell) == CellState::kOccupied);
+    }
+    // Sampling every half cell can only miss a corner that the segment clips by a sliver.
+    const bool sees = line_of_sight(grid, a, b);
+    EXPECT_FALSE(sees == false && oracle) << "a clear segment reported blocked: " << a.transpose() << " -> " << b.transpose();
+    corners_missed += sees && !oracle ? 1 : 0;
+    blocked += oracle ? 0 : 1;
+  }
+  EXPECT_GT(blocked, 100);  // the oracle sees both outcomes
+  EXPECT_LT(blocked, 300);
+  EXPECT_LE(corners_missed, 6);
+}
+
+// The unknown floor in sight of a point: the unseen east half of a room shows about half a disk from the
+// middle of the boundary; a wall in between hides it; nothing unknown, nothing to gain.
+TEST(OccupancyGrid, UnknownAreaInSightCountsWhatASensorCouldStillSee) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {-0.5, -0.5, 6.5, 4.5};
+  core::PointCloud half;
+  add_floor(half, 0.0, 0.0, 3.0, 4.0);
+  OccupancyGrid grid(config);
+  grid.update(half);
+  const double r = 1.0;
+  const double half_disk = 0.5 * M_PI * r * r;
+  EXPECT_NEAR(unknown_area_in_sight_m2(grid, {2.975, 2.0}, r), half_disk, 0.1 * half_disk);
+  EXPECT_NEAR(unknown_area_in_sight_m2(grid, {1.5, 2.0}, r), 0.0, 1e-12);
+  add_box(half, 3.0, -0.05, 3.05, 4.05, 0.0, 1.2);  // a wall along the boundary
+  grid.update(half);
+  EXPECT_LT(unknown_area_in_sight_m2(grid, {2.9, 2.0}, r), 0.05 * half_disk);
+  EXPECT_EQ(unknown_area_in_sight_m2(grid, {std::nan(""), 2.0}, r), 0.0);
+}
+
 TEST(OccupancyGrid, NonFinitePointsAreSkipped) {
   core::PointCloud cloud = room(2.0, 2.0);
   cloud.push_back(Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f));

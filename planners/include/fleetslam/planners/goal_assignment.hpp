@@ -3,7 +3,9 @@
 // deterministically: repeatedly the (robot, goal) pair of least cost among unassigned robots and goals is
 // taken, where cost = travel cost (straight line, or path length over the grid's traversable cells) plus a
 // penalty for goals near goals already given to other robots (separation_penalty_m * (1 - d /
-// separation_m) for each such goal closer than separation_m). Ties go to the lower robot index, then the
+// separation_m) for each such goal closer than separation_m), minus gain_weight_m_per_m2 times the goal's
+// gain when gains are given (exploration: the unknown floor a frontier would show, so that a doorway onto
+// an unseen room comes before the leftovers of the room a robot is in). Ties go to the lower robot index, then the
 // lower goal index. Unreachable goals (grid cost infinite) are never assigned; robots left without a goal
 // get -1.
 
@@ -23,6 +25,7 @@ struct GoalAssignmentConfig {
   double separation_m = 2.0;
   double separation_penalty_m = 5.0;
   UnknownCells unknown_cells = UnknownCells::kOccupied;  // for kGridPath
+  double gain_weight_m_per_m2 = 0.0;  // metres of travel one square metre of gain is worth (0: gains ignored)
 
   template <class V>
   void visit(V& v) {
@@ -30,6 +33,7 @@ struct GoalAssignmentConfig {
     v("separation_m", separation_m, core::Limits<double>{0.0, 1000.0});
     v("separation_penalty_m", separation_penalty_m, core::Limits<double>{0.0, 1e6});
     v.choice("unknown_cells", unknown_cells, {{"free", UnknownCells::kFree}, {"occupied", UnknownCells::kOccupied}});
+    v("gain_weight_m_per_m2", gain_weight_m_per_m2, core::Limits<double>{0.0, 1e6});
   }
 };
 
@@ -43,9 +47,10 @@ class GoalAssigner {
   using Config = GoalAssignmentConfig;
   explicit GoalAssigner(const Config& config) : config_(config) {}
 
-  // grid is needed for kGridPath (InputError when null).
+  // grid is needed for kGridPath (InputError when null). gains_m2: empty, or one per goal (InputError
+  // otherwise, or for a gain that is negative or not finite).
   GoalAssignment assign(const std::vector<Eigen::Vector2d>& robots_world, const std::vector<Eigen::Vector2d>& goals_world,
-                        const OccupancyGrid* grid = nullptr) const;
+                        const OccupancyGrid* grid = nullptr, const std::vector<double>& gains_m2 = {}) const;
 
   const Config& config() const { return config_; }
 

@@ -209,6 +209,16 @@ class OccupancyGrid {
 std::optional<Eigen::Vector2d> nearest_cell_centre(const OccupancyGrid& grid, const Eigen::Vector2d& p_world, double radius_m,
                                                    const std::function<bool(const Eigen::Vector2d&)>& accept);
 
+// Whether the straight segment from a_world to b_world crosses no occupied cell (unknown and free cells
+// let it through; so do points outside the grid): what a sensor at a could see of b. Sampled every
+// half cell along the segment, both ends included.
+bool line_of_sight(const OccupancyGrid& grid, const Eigen::Vector2d& a_world, const Eigen::Vector2d& b_world);
+
+// The area (m^2) of the unknown cells whose centres lie within radius_m of p_world and are in its line of
+// sight (above): what a sensor there could still discover, the gain of an exploration goal. 0 for a
+// non-finite point.
+double unknown_area_in_sight_m2(const OccupancyGrid& grid, const Eigen::Vector2d& p_world, double radius_m);
+
 // The traversable cell centre nearest p_world within radius_m (p_world itself when it is traversable), or
 // nullopt: where a robot whose inflated footprint touches an obstacle can start a plan from.
 std::optional<Eigen::Vector2d> nearest_traversable(const OccupancyGrid& grid, const Eigen::Vector2d& p_world,
