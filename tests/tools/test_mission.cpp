@@ -195,6 +195,83 @@ TEST(MissionPlanner, AFrontierStillThereWhenItsGoalWasReachedIsNotVisitedAgain) 
   EXPECT_LT((again[2] - again[0]).norm(), 0.3) << "back to the first patch";
 }
 
+// Through a 1 m doorway a camera sees the next room's floor as a narrow strip between its rays: too narrow
+// for the robot, too close to the jambs for a goal with the clearance asked for. Without viewpoints that
+// frontier has no goal; with explore_view_search_m the robot is sent to a cell in front of the doorway
+// that sees it, keeps that goal while the strip's frontier remains, and drops it once the room is seen.
+TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
+  core::PointCloud seen;
+  add_floor(seen, 0.0, 0.0, 2.97, 4.0);   // the west room
+  add_floor(seen, 2.97, 1.5, 3.4, 2.5);   // the doorway and the floor just beyond it
+  add_floor(seen, 3.4, 1.9, 5.5, 2.1);    // a strip of the east room, seen through the doorway
+  add_box(seen, 5.5, 1.85, 5.55, 2.15, 0.0, 1.2);  // the east wall where the strip ends
+  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
+  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
+  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);  // the wall between the rooms, with its doorway
+  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  const auto explore = [](double view_search_m) {
+    MissionConfig m;
+    m.kind = MissionKind::kExplore;
+    m.explore_goal_clearance_m = 0.7;
+    m.explore_view_search_m = view_search_m;
+    return MissionPlanner(m, planning(planners::UnknownCells::kOccupied), {MissionRobot{"a", true, {}}});
+  };
+  MissionPlanner without = explore(0.0);
+  without.update(0.5, seen, {at(1.0, 2.0)});
+  EXPECT_FALSE(without.goal_of(0).has_value()) << without.goal_of(0)->transpose();
+  EXPECT_EQ(without.reports()[0].status, "no reachable frontier left");
+
+  MissionPlanner mission = explore(2.5);
+  std::vector<PathCommand> commands = mission.update(0.5, seen, {at(1.0, 2.0)});
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  const Eigen::Vector2d goal = *mission.goal_of(0);
+  EXPECT_LT(goal.x(), 2.97 - 0.4) << "in the west room, clear of the jambs: " << goal.transpose();
+  EXPECT_GT(goal.x(), 1.5) << "in front of the doorway: " << goal.transpose();
+  EXPECT_NEAR(goal.y(), 2.0, 0.5) << goal.transpose();
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  EXPECT_FALSE(command_for(commands, 0)->path_world.empty());
+  ASSERT_FALSE(mission.reports()[0].events.empty());
+  EXPECT_NE(mission.reports()[0].events.back().find("viewpoint"), std::string::npos) << mission.reports()[0].events.back();
+  // On its way (the strip's frontier still there, though far from the goal): the goal stays.
+  mission.update(2.5, seen, {at(1.6, 2.0)});
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  EXPECT_TRUE(mission.goal_of(0)->isApprox(goal));
+  // From there it sees the east room: the frontier is explored, and nothing is left to see.
+  core::PointCloud both = seen;
+  add_floor(both, 3.03, 0.0, 6.0, 4.0);
+  add_box(both, 3.03, -0.05, 6.05, -0.01, 0.0, 1.2);
+  add_box(both, 3.03, 4.01, 6.05, 4.05, 0.0, 1.2);
+  add_box(both, 6.01, -0.05, 6.05, 4.05, 0.0, 1.2);
+  mission.update(4.5, both, {at(2.0, 2.0)});
+  EXPECT_NE(mission.reports()[0].events[1].find("its frontier has been explored"), std::string::npos)
+      << mission.reports()[0].events[1];
+
+  // A robot already standing at the viewpoint, facing away from the doorway, turns towards it (a short
+  // step east), takes no goal while it turns, and does not turn to the same frontier again.
+  MissionPlanner looker = explore(2.5);
+  commands = looker.update(0.5, seen, {at(2.3, 2.0, M_PI)});
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  ASSERT_EQ(command_for(commands, 0)->path_world.size(), 1u);
+  EXPECT_NEAR(command_for(commands, 0)->path_world[0].x(), 2.3 + 0.25, 0.05);
+  EXPECT_FALSE(looker.goal_of(0).has_value());
+  ASSERT_FALSE(looker.reports()[0].events.empty());
+  EXPECT_NE(looker.reports()[0].events.back().find("turns to look at the frontier"), std::string::npos)
+      << looker.reports()[0].events.back();
+  EXPECT_EQ(command_for(looker.update(1.5, seen, {at(2.3, 2.0, M_PI / 2.0, false)}), 0), nullptr) << "still turning";
+  // Turned away again: not to the same frontier (another piece of the strip, farther east, if any).
+  const std::string first = looker.reports()[0].events[0];
+  looker.update(3.0, seen, {at(2.3, 2.0, M_PI, true)});
+  for (std::size_t e = 1; e < looker.reports()[0].events.size(); ++e) {
+    const std::string& event = looker.reports()[0].events[e];
+    EXPECT_EQ(event.find(first.substr(first.find("frontier at"))), std::string::npos) << event;
+  }
+  // Facing the doorway, with every viewpoint within reach: nothing to turn to, no goal.
+  looker.update(5.0, seen, {at(2.3, 2.0, 0.0, true)});
+  EXPECT_FALSE(looker.goal_of(0).has_value());
+  EXPECT_EQ(looker.reports()[0].status, "no reachable frontier left");
+}
+
 TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
   // Another robot's camera saw robot a standing at (1, 2): a box in the map there.
   core::PointCloud map = room(6.0, 4.0);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <limits>
 #include <utility>
 
@@ -190,7 +191,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       bool frontier_left = false;
       for (const planners::Frontier& f : frontiers) {
         for (const planners::CellIndex& c : f.cells) {
-          if ((planning_grid_.center_of(c) - *s.goal_world).norm() <= mission_.explore_goal_valid_m) {
+          if ((planning_grid_.center_of(c) - s.frontier_world).norm() <= mission_.explore_goal_valid_m) {
             frontier_left = true;
             break;
           }
@@ -235,6 +236,8 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   std::vector<Eigen::Vector2d> taken;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;
+    if (state_[r].looking && !robots[r].path_done) continue;  // still turning to look at a frontier
+    state_[r].looking = false;
     if (state_[r].goal_world) {
       taken.push_back(*state_[r].goal_world);
     } else if (robots[r].tracking) {
@@ -246,11 +249,17 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     }
   }
   if (idle.empty()) return;
-  std::vector<Eigen::Vector2d> goals;
+  std::vector<Eigen::Vector2d> goals, goal_frontiers;
+  std::vector<double> gains_m2;
   const std::vector<planners::Frontier> frontiers = planning_grid_.frontiers();
   // Each frontier's goal: the cell nearest its centroid that a robot can stand on, with unknown cells
   // as the assignment counts them (the grid's own goals count them occupied).
-  std::vector<Eigen::Vector2d> frontier_goals;
+  std::vector<Eigen::Vector2d> frontier_goals, frontier_of_goal;
+  std::vector<double> frontier_gain_m2;
+  const bool gains = planning_.assignment.gain_weight_m_per_m2 > 0.0;
+  const auto gain_of = [&](const planners::Frontier& f) {
+    return gains ? planners::unknown_area_in_sight_m2(planning_grid_, f.centroid_world, mission_.explore_gain_radius_m) : 0.0;
+  };
   const planners::UnknownCells unknown = planning_.assignment.unknown_cells;
   const auto good_goal = [&](const Eigen::Vector2d& p) {
     const std::optional<planners::CellIndex> cell = planning_grid_.cell_of(p);
@@ -262,9 +271,27 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
         good_goal(f.centroid_world)
             ? std::optional<Eigen::Vector2d>(f.centroid_world)
             : planners::nearest_cell_centre(planning_grid_, f.centroid_world, planning_grid_.config().frontier_goal_search_m, good_goal);
-    if (g) frontier_goals.push_back(*g);
+    if (g) {
+      frontier_goals.push_back(*g);
+      frontier_of_goal.push_back(*g);
+      frontier_gain_m2.push_back(gain_of(f));
+      continue;
+    }
+    if (mission_.explore_view_search_m <= 0.0) continue;
+    const std::optional<Eigen::Vector2d> view = planners::nearest_cell_centre(
+        planning_grid_, f.centroid_world, mission_.explore_view_search_m, [&](const Eigen::Vector2d& p) {
+          return good_goal(p) && planners::line_of_sight(planning_grid_, p, f.centroid_world);
+        });
+    if (view) {
+      frontier_goals.push_back(*view);
+      frontier_of_goal.push_back(f.centroid_world);
+      frontier_gain_m2.push_back(gain_of(f));
+    }
   }
-  for (const Eigen::Vector2d& g : frontier_goals) {
+  if (mission_.explore_view_search_m > 0.0) look_at_frontiers(t_s, robots, frontier_goals, frontier_of_goal, idle, idle_positions, looks);
+  if (idle.empty()) return;
+  for (std::size_t i = 0; i < frontier_goals.size(); ++i) {
+    const Eigen::Vector2d& g = frontier_goals[i];
     bool free_goal = true;
     for (const Eigen::Vector2d& t : taken) free_goal = free_goal && (g - t).norm() > planning_.assignment.separation_m;
     for (const Eigen::Vector2d& a : abandoned_goals_world_) free_goal = free_goal && (g - a).norm() > mission_.goal_reached_m;
@@ -276,9 +303,13 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     for (std::size_t r = 0; r < robots_.size(); ++r) {
       if (robots_[r].ground) free_goal = free_goal && (g - robots[r].pose_world.xy()).norm() >= mission_.explore_min_goal_distance_m;
     }
-    if (free_goal) goals.push_back(g);
+    if (free_goal) {
+      goals.push_back(g);
+      goal_frontiers.push_back(frontier_of_goal[i]);
+      gains_m2.push_back(frontier_gain_m2[i]);
+    }
   }
-  const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &planning_grid_);
+  const planners::GoalAssignment assignment = planners::GoalAssigner(planning_.assignment).assign(idle_positions, goals, &planning_grid_, gains_m2);
   logger_->info("mission: {:.2f} s: {} frontier(s), {} with a goal, {} worth a trip, for {} idle robot(s)", t_s,
                 frontiers.size(), frontier_goals.size(), goals.size(), idle.size());
   for (std::size_t i = 0; i < idle.size(); ++i) {
@@ -295,13 +326,61 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     s.exhausted = false;
     s.look_arounds = 0;
     s.goal_world = goals[static_cast<std::size_t>(g)];
+    s.frontier_world = goal_frontiers[static_cast<std::size_t>(g)];
     s.failures_for_goal = 0;
     s.has_path = false;
     ++reports_[r].goals_total;
-    char what[96];
-    std::snprintf(what, sizeof(what), "frontier (%.2f, %.2f) assigned", s.goal_world->x(), s.goal_world->y());
+    char what[128];
+    if (s.frontier_world == *s.goal_world) {
+      std::snprintf(what, sizeof(what), "frontier (%.2f, %.2f) assigned", s.goal_world->x(), s.goal_world->y());
+    } else {
+      std::snprintf(what, sizeof(what), "viewpoint (%.2f, %.2f) on the frontier at (%.2f, %.2f) assigned",
+                    s.goal_world->x(), s.goal_world->y(), s.frontier_world.x(), s.frontier_world.y());
+    }
     event(r, t_s, what);
     needs_plan[r] = true;
+  }
+}
+
+void MissionPlanner::look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots,
+                                       const std::vector<Eigen::Vector2d>& frontier_goals,
+                                       const std::vector<Eigen::Vector2d>& frontier_of_goal, std::vector<std::size_t>& idle,
+                                       std::vector<Eigen::Vector2d>& idle_positions, std::vector<PathCommand>& looks) {
+  // An idle robot that already stands at a frontier's viewpoint (nearer than explore_min_goal_distance_m,
+  // so no goal is made of it) but faces away from the frontier turns towards it, with a short step that
+  // way, once per frontier; it takes no goal until the turn is done.
+  constexpr double kFacingRad = M_PI / 4.0;
+  constexpr double kStepM = 0.25;
+  for (std::size_t k = 0; k < idle.size();) {
+    const std::size_t r = idle[k];
+    const planners::Pose2d& pose = robots[r].pose_world;
+    std::optional<Eigen::Vector2d> look;
+    for (std::size_t i = 0; i < frontier_goals.size() && !look; ++i) {
+      const Eigen::Vector2d& frontier = frontier_of_goal[i];
+      const Eigen::Vector2d to_frontier = frontier - pose.xy();
+      if (frontier == frontier_goals[i]) continue;  // not a viewpoint
+      if ((frontier_goals[i] - pose.xy()).norm() >= mission_.explore_min_goal_distance_m) continue;
+      if (to_frontier.norm() < mission_.explore_min_goal_distance_m) continue;  // its own rim
+      const double off = std::abs(std::remainder(std::atan2(to_frontier.y(), to_frontier.x()) - pose.yaw_rad, 2.0 * M_PI));
+      if (off <= kFacingRad || !planners::line_of_sight(planning_grid_, pose.xy(), frontier)) continue;
+      bool looked = false;
+      for (const Eigen::Vector2d& l : looked_at_world_) looked = looked || (l - frontier).norm() < mission_.explore_goal_valid_m;
+      if (looked) continue;
+      const Eigen::Vector2d target = pose.xy() + kStepM * to_frontier.normalized();
+      if (planning_grid_.traversable(target, planning_.path.unknown_cells)) look = frontier;
+    }
+    if (!look) {
+      ++k;
+      continue;
+    }
+    looked_at_world_.push_back(*look);
+    state_[r].looking = true;
+    looks.push_back({r, {pose.xy() + kStepM * (*look - pose.xy()).normalized()}});
+    char what[96];
+    std::snprintf(what, sizeof(what), "turns to look at the frontier at (%.2f, %.2f)", look->x(), look->y());
+    event(r, t_s, what);
+    idle.erase(idle.begin() + static_cast<std::ptrdiff_t>(k));
+    idle_positions.erase(idle_positions.begin() + static_cast<std::ptrdiff_t>(k));
   }
 }
 

@@ -1,7 +1,9 @@
 #pragma once
 // The central unit's planning side of a run: from the fused dense map, an occupancy grid; for each ground
 // robot a goal (its next scenario waypoint, or a frontier assigned so that robots explore different
-// places) and a deconflicted OMPL path to it, handed back to the robot's path-following controller.
+// places: the frontier's goal, or a viewpoint that sees it, and a robot standing at a viewpoint facing
+// away turns towards its frontier) and a deconflicted OMPL path to it, handed back to the robot's
+// path-following controller.
 //
 // update() runs every MissionConfig::replan_period_s of simulated time (and early when a robot finished
 // its path): it rebuilds the grid from the fused map (the cells a robot has driven over count as free),
@@ -95,12 +97,15 @@ class MissionPlanner {
  private:
   struct RobotMission {
     std::optional<Eigen::Vector2d> goal_world;
+    // Explore: where the frontier of its goal is (the goal itself, or the centroid a viewpoint looks at).
+    Eigen::Vector2d frontier_world = Eigen::Vector2d::Zero();
     std::size_t next_waypoint = 0;
     int failures_for_goal = 0;
     bool has_path = false;
     bool stopped_lost = false;
     bool backtracked = false;  // lost: the drive back has been commanded
     bool exhausted = false;  // explore: no frontier was left for it at the last assignment
+    bool looking = false;    // explore: turning to look at a frontier (busy until its path is done)
     int look_arounds = 0;    // quarter turns since its last frontier
     std::vector<planners::Pose2d> path_world;
   };
@@ -110,6 +115,9 @@ class MissionPlanner {
   void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
   void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
                         std::vector<PathCommand>& looks);
+  void look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots, const std::vector<Eigen::Vector2d>& frontier_goals,
+                         const std::vector<Eigen::Vector2d>& frontier_of_goal, std::vector<std::size_t>& idle,
+                         std::vector<Eigen::Vector2d>& idle_positions, std::vector<PathCommand>& looks);
   void look_around(double t_s, std::size_t robot, const RobotObservation& seen, std::vector<PathCommand>& commands);
   bool path_blocked(std::size_t robot, const RobotObservation& observation) const;
   void plan(double t_s, const std::vector<RobotObservation>& robots, const std::vector<bool>& needs_plan,
@@ -127,6 +135,7 @@ class MissionPlanner {
   std::vector<MissionRobotReport> reports_;
   std::vector<Eigen::Vector2d> abandoned_goals_world_;  // explore: frontier goals given up
   std::vector<Eigen::Vector2d> reached_goals_world_;    // explore: frontier goals a robot reached
+  std::vector<Eigen::Vector2d> looked_at_world_;        // explore: frontiers a robot turned to look at
 };
 
 }  // namespace fleetslam::runner

@@ -61,6 +61,15 @@ struct MissionConfig {
   // borders unknown floor by definition) (0: any cell the robot fits in). A robot that stops, and turns towards its next goal, with its camera a hand's breadth from
   // a wall sees nothing an agent can track (depth below its range, a patch of bare texture).
   double explore_goal_clearance_m = 0.0;
+  // Explore: a frontier with no goal within the grid's frontier_goal_search_m gets a viewpoint instead, the
+  // goal cell nearest its centroid within this distance that sees the centroid (no occupied cell between):
+  // beyond a doorway, the floor seen through it from afar is strips between the camera's rays, too narrow
+  // for a robot and too close to the jambs for a goal, and only a robot in front of the doorway sees it
+  // whole. The robot's goal stays while frontier cells remain near the centroid. 0 (default): off.
+  double explore_view_search_m = 0.0;
+  // Explore: a frontier's gain (planning.assignment.gain_weight_m_per_m2) is the unknown floor within this
+  // distance of its centroid that the centroid has in sight.
+  double explore_gain_radius_m = 1.5;
   // Explore: a robot with no reachable frontier turns a quarter further (a short step that way) to see
   // more, up to max_look_arounds times until it gets a frontier again. 0 (default): it waits. Turning on
   // the spot in front of a bare wall can cost an agent its tracking.
@@ -84,6 +93,8 @@ struct MissionConfig {
     v("explore_min_goal_distance_m", explore_min_goal_distance_m, core::Limits<double>{0.0, 100.0});
     v("explore_revisit_radius_m", explore_revisit_radius_m, core::Limits<double>{0.0, 100.0});
     v("explore_goal_clearance_m", explore_goal_clearance_m, core::Limits<double>{0.0, 10.0});
+    v("explore_view_search_m", explore_view_search_m, core::Limits<double>{0.0, 100.0});
+    v("explore_gain_radius_m", explore_gain_radius_m, core::Limits<double>{0.01, 100.0});
     v("look_around_step_m", look_around_step_m, core::Limits<double>{0.0, 10.0});
     v("max_look_arounds", max_look_arounds, core::Limits<int>{0, 1000});
   }
