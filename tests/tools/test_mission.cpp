@@ -272,6 +272,41 @@ TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
   EXPECT_EQ(looker.reports()[0].status, "no reachable frontier left");
 }
 
+// Beyond the doorway the camera saw a wide patch of floor, cut off from the robot by unseen floor: goals
+// on it cannot be reached. With viewpoints on, a frontier goal must be reachable, so the patch's frontier
+// gets a viewpoint instead, where the robot already stands in front of the doorway: facing away, it
+// turns to look. Without viewpoints nothing is left for it.
+TEST(MissionPlanner, WithViewpointsAFrontierCutOffFromTheRobotIsLookedAt) {
+  core::PointCloud seen;
+  add_floor(seen, 0.0, 0.0, 2.97, 4.0);
+  add_floor(seen, 4.3, 0.8, 5.9, 3.2);  // the patch: room to stand, nothing leading there
+  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
+  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
+  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);
+  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  MissionConfig m;
+  m.kind = MissionKind::kExplore;
+  m.explore_goal_clearance_m = 0.7;
+  for (const double view_search_m : {0.0, 2.5}) {
+    m.explore_view_search_m = view_search_m;
+    MissionPlanner mission(m, planning(planners::UnknownCells::kOccupied), {MissionRobot{"a", true, {}}});
+    const std::vector<PathCommand> commands = mission.update(0.5, seen, {at(2.3, 2.0, M_PI)});
+    EXPECT_FALSE(mission.goal_of(0).has_value());
+    ASSERT_FALSE(mission.reports()[0].events.empty());
+    const std::string& event = mission.reports()[0].events.back();
+    if (view_search_m == 0.0) {
+      EXPECT_NE(event.find("no reachable frontier left"), std::string::npos) << event;
+      continue;
+    }
+    const std::string prefix = "turns to look at the frontier at (";
+    ASSERT_NE(event.find(prefix), std::string::npos) << event;
+    EXPECT_GT(std::stod(event.substr(event.find(prefix) + prefix.size())), 4.2) << "a frontier of the patch: " << event;
+    ASSERT_NE(command_for(commands, 0), nullptr);
+    EXPECT_GT(command_for(commands, 0)->path_world.at(0).x(), 2.3) << "a step east, towards the patch";
+  }
+}
+
 TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
   // Another robot's camera saw robot a standing at (1, 2): a box in the map there.
   core::PointCloud map = room(6.0, 4.0);

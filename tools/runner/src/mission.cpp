@@ -254,17 +254,28 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   const std::vector<planners::Frontier> frontiers = planning_grid_.frontiers();
   // Each frontier's goal: the cell nearest its centroid that a robot can stand on, with unknown cells
   // as the assignment counts them (the grid's own goals count them occupied).
-  std::vector<Eigen::Vector2d> frontier_goals, frontier_of_goal;
+  std::vector<Eigen::Vector2d> frontier_goals, frontier_of_goal, centroid_of_goal;
   std::vector<double> frontier_gain_m2;
   const bool gains = planning_.assignment.gain_weight_m_per_m2 > 0.0;
   const auto gain_of = [&](const planners::Frontier& f) {
     return gains ? planners::unknown_area_in_sight_m2(planning_grid_, f.centroid_world, mission_.explore_gain_radius_m) : 0.0;
   };
   const planners::UnknownCells unknown = planning_.assignment.unknown_cells;
+  // With viewpoints on, a goal is also one an idle robot can reach: a frontier whose nearby cells no robot
+  // reaches (floor beyond a doorway, seen only as strips) gets a reachable cell farther off, or a viewpoint.
+  std::vector<std::vector<double>> reach_m;
+  if (mission_.explore_view_search_m > 0.0) {
+    for (const Eigen::Vector2d& p : idle_positions) reach_m.push_back(planning_grid_.geodesic_distances_m(p, unknown));
+  }
   const auto good_goal = [&](const Eigen::Vector2d& p) {
     const std::optional<planners::CellIndex> cell = planning_grid_.cell_of(p);
-    return cell && planning_grid_.traversable(*cell, unknown) &&
-           planning_grid_.clearance_m(*cell, planners::UnknownCells::kFree) >= mission_.explore_goal_clearance_m;
+    if (!cell || !planning_grid_.traversable(*cell, unknown) ||
+        planning_grid_.clearance_m(*cell, planners::UnknownCells::kFree) < mission_.explore_goal_clearance_m) {
+      return false;
+    }
+    bool reached = reach_m.empty();
+    for (const std::vector<double>& d : reach_m) reached = reached || std::isfinite(d[planning_grid_.index(*cell)]);
+    return reached;
   };
   for (const planners::Frontier& f : frontiers) {
     const std::optional<Eigen::Vector2d> g =
@@ -274,6 +285,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     if (g) {
       frontier_goals.push_back(*g);
       frontier_of_goal.push_back(*g);
+      centroid_of_goal.push_back(f.centroid_world);
       frontier_gain_m2.push_back(gain_of(f));
       continue;
     }
@@ -285,10 +297,11 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     if (view) {
       frontier_goals.push_back(*view);
       frontier_of_goal.push_back(f.centroid_world);
+      centroid_of_goal.push_back(f.centroid_world);
       frontier_gain_m2.push_back(gain_of(f));
     }
   }
-  if (mission_.explore_view_search_m > 0.0) look_at_frontiers(t_s, robots, frontier_goals, frontier_of_goal, idle, idle_positions, looks);
+  if (mission_.explore_view_search_m > 0.0) look_at_frontiers(t_s, robots, frontier_goals, centroid_of_goal, idle, idle_positions, looks);
   if (idle.empty()) return;
   for (std::size_t i = 0; i < frontier_goals.size(); ++i) {
     const Eigen::Vector2d& g = frontier_goals[i];
@@ -344,11 +357,11 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
 
 void MissionPlanner::look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots,
                                        const std::vector<Eigen::Vector2d>& frontier_goals,
-                                       const std::vector<Eigen::Vector2d>& frontier_of_goal, std::vector<std::size_t>& idle,
+                                       const std::vector<Eigen::Vector2d>& centroid_of_goal, std::vector<std::size_t>& idle,
                                        std::vector<Eigen::Vector2d>& idle_positions, std::vector<PathCommand>& looks) {
-  // An idle robot that already stands at a frontier's viewpoint (nearer than explore_min_goal_distance_m,
-  // so no goal is made of it) but faces away from the frontier turns towards it, with a short step that
-  // way, once per frontier; it takes no goal until the turn is done.
+  // An idle robot that already stands at a frontier's goal or viewpoint (nearer than
+  // explore_min_goal_distance_m, so no trip is made to it) but faces away from the frontier turns towards
+  // it, with a short step that way, once per frontier; it takes no goal until the turn is done.
   constexpr double kFacingRad = M_PI / 4.0;
   constexpr double kStepM = 0.25;
   for (std::size_t k = 0; k < idle.size();) {
@@ -356,9 +369,8 @@ void MissionPlanner::look_at_frontiers(double t_s, const std::vector<RobotObserv
     const planners::Pose2d& pose = robots[r].pose_world;
     std::optional<Eigen::Vector2d> look;
     for (std::size_t i = 0; i < frontier_goals.size() && !look; ++i) {
-      const Eigen::Vector2d& frontier = frontier_of_goal[i];
+      const Eigen::Vector2d& frontier = centroid_of_goal[i];
       const Eigen::Vector2d to_frontier = frontier - pose.xy();
-      if (frontier == frontier_goals[i]) continue;  // not a viewpoint
       if ((frontier_goals[i] - pose.xy()).norm() >= mission_.explore_min_goal_distance_m) continue;
       if (to_frontier.norm() < mission_.explore_min_goal_distance_m) continue;  // its own rim
       const double off = std::abs(std::remainder(std::atan2(to_frontier.y(), to_frontier.x()) - pose.yaw_rad, 2.0 * M_PI));

@@ -116,7 +116,7 @@ class MissionPlanner {
   void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
                         std::vector<PathCommand>& looks);
   void look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots, const std::vector<Eigen::Vector2d>& frontier_goals,
-                         const std::vector<Eigen::Vector2d>& frontier_of_goal, std::vector<std::size_t>& idle,
+                         const std::vector<Eigen::Vector2d>& centroid_of_goal, std::vector<std::size_t>& idle,
                          std::vector<Eigen::Vector2d>& idle_positions, std::vector<PathCommand>& looks);
   void look_around(double t_s, std::size_t robot, const RobotObservation& seen, std::vector<PathCommand>& commands);
   bool path_blocked(std::size_t robot, const RobotObservation& observation) const;

@@ -65,7 +65,9 @@ struct MissionConfig {
   // goal cell nearest its centroid within this distance that sees the centroid (no occupied cell between):
   // beyond a doorway, the floor seen through it from afar is strips between the camera's rays, too narrow
   // for a robot and too close to the jambs for a goal, and only a robot in front of the doorway sees it
-  // whole. The robot's goal stays while frontier cells remain near the centroid. 0 (default): off.
+  // whole. The robot's goal stays while frontier cells remain near the centroid. With viewpoints on, every
+  // frontier goal must also be one an idle robot can reach, and a robot that stands at a frontier's goal
+  // or viewpoint facing away turns towards the frontier once. 0 (default): off.
   double explore_view_search_m = 0.0;
   // Explore: a frontier's gain (planning.assignment.gain_weight_m_per_m2) is the unknown floor within this
   // distance of its centroid that the centroid has in sight.
