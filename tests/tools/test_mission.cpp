@@ -272,6 +272,41 @@ TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
   EXPECT_EQ(looker.reports()[0].status, "no reachable frontier left");
 }
 
+// With viewpoints on, a robot that reaches its goal facing away from the frontier (it drove there
+// backwards round an obstacle, say) turns to the frontier before it takes another goal.
+TEST(MissionPlanner, ARobotThatReachesItsGoalFacingAwayTurnsToItsFrontier) {
+  core::PointCloud seen;
+  add_floor(seen, 0.0, 0.0, 2.97, 4.0);
+  add_floor(seen, 2.97, 1.5, 3.4, 2.5);
+  add_floor(seen, 3.4, 1.9, 5.5, 2.1);
+  add_box(seen, 5.5, 1.85, 5.55, 2.15, 0.0, 1.2);
+  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
+  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
+  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);
+  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  MissionConfig m;
+  m.kind = MissionKind::kExplore;
+  m.explore_goal_clearance_m = 0.7;
+  m.explore_view_search_m = 2.5;
+  MissionPlanner mission(m, planning(planners::UnknownCells::kOccupied), {MissionRobot{"a", true, {}}});
+  mission.update(0.5, seen, {at(1.0, 2.0)});
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  const Eigen::Vector2d goal = *mission.goal_of(0);
+  const std::vector<PathCommand> commands = mission.update(4.0, seen, {at(goal.x(), goal.y(), M_PI, true)});
+  EXPECT_FALSE(mission.goal_of(0).has_value());
+  const std::vector<std::string>& events = mission.reports()[0].events;
+  ASSERT_EQ(events.size(), 3u) << events.back();
+  EXPECT_NE(events[1].find("reached"), std::string::npos) << events[1];
+  EXPECT_NE(events[2].find("turns to look at the frontier"), std::string::npos) << events[2];
+  ASSERT_NE(command_for(commands, 0), nullptr);
+  ASSERT_EQ(command_for(commands, 0)->path_world.size(), 1u) << "the turn, not a plan to another goal";
+  EXPECT_GT(command_for(commands, 0)->path_world[0].x(), goal.x());
+  // Busy while it turns: no goal, no command.
+  EXPECT_EQ(command_for(mission.update(5.0, seen, {at(goal.x(), goal.y(), M_PI / 2.0, false)}), 0), nullptr);
+  EXPECT_FALSE(mission.goal_of(0).has_value());
+}
+
 // Beyond the doorway the camera saw a wide patch of floor, cut off from the robot by unseen floor: goals
 // on it cannot be reached. With viewpoints on, a frontier goal must be reachable, so the patch's frontier
 // gets a viewpoint instead, where the robot already stands in front of the doorway: facing away, it

@@ -153,7 +153,8 @@ void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::stri
   s.failures_for_goal = 0;
 }
 
-void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan) {
+void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
+                                  std::vector<PathCommand>& looks) {
   const std::vector<planners::Frontier> frontiers =
       mission_.kind == MissionKind::kExplore ? planning_grid_.frontiers() : std::vector<planners::Frontier>{};
   for (std::size_t r = 0; r < robots_.size(); ++r) {
@@ -182,6 +183,11 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       event(r, t_s, what);
       if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
       if (mission_.kind == MissionKind::kExplore) reached_goals_world_.push_back(*s.goal_world);
+      // With viewpoints on, a robot that arrived facing away from its frontier turns to it: a goal reached
+      // is a frontier seen (the revisit rule counts on it).
+      if (mission_.kind == MissionKind::kExplore && mission_.explore_view_search_m > 0.0) {
+        look_towards(t_s, r, seen.pose_world, s.frontier_centroid_world, looks);
+      }
       s.goal_world.reset();
       s.failures_for_goal = 0;
       s.has_path = false;
@@ -236,7 +242,8 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   std::vector<Eigen::Vector2d> taken;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;
-    if (state_[r].looking && !robots[r].path_done) continue;  // still turning to look at a frontier
+    // Still turning to look at a frontier (or told to at this update, after the robot's path was done).
+    if (state_[r].looking && (!robots[r].path_done || state_[r].look_t_s == t_s)) continue;
     state_[r].looking = false;
     if (state_[r].goal_world) {
       taken.push_back(*state_[r].goal_world);
@@ -249,7 +256,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     }
   }
   if (idle.empty()) return;
-  std::vector<Eigen::Vector2d> goals, goal_frontiers;
+  std::vector<Eigen::Vector2d> goals, goal_frontiers, goal_centroids;
   std::vector<double> gains_m2;
   const std::vector<planners::Frontier> frontiers = planning_grid_.frontiers();
   // Each frontier's goal: the cell nearest its centroid that a robot can stand on, with unknown cells
@@ -319,6 +326,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     if (free_goal) {
       goals.push_back(g);
       goal_frontiers.push_back(frontier_of_goal[i]);
+      goal_centroids.push_back(centroid_of_goal[i]);
       gains_m2.push_back(frontier_gain_m2[i]);
     }
   }
@@ -340,6 +348,7 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     s.look_arounds = 0;
     s.goal_world = goals[static_cast<std::size_t>(g)];
     s.frontier_world = goal_frontiers[static_cast<std::size_t>(g)];
+    s.frontier_centroid_world = goal_centroids[static_cast<std::size_t>(g)];
     s.failures_for_goal = 0;
     s.has_path = false;
     ++reports_[r].goals_total;
@@ -355,42 +364,49 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
   }
 }
 
+bool MissionPlanner::look_towards(double t_s, std::size_t robot, const planners::Pose2d& pose, const Eigen::Vector2d& frontier_world,
+                                  std::vector<PathCommand>& looks) {
+  constexpr double kFacingRad = M_PI / 4.0;
+  constexpr double kStepM = 0.25;
+  const Eigen::Vector2d to_frontier = frontier_world - pose.xy();
+  if (to_frontier.norm() < kStepM) return false;
+  const double off = std::abs(std::remainder(std::atan2(to_frontier.y(), to_frontier.x()) - pose.yaw_rad, 2.0 * M_PI));
+  if (off <= kFacingRad || !planners::line_of_sight(planning_grid_, pose.xy(), frontier_world)) return false;
+  const Eigen::Vector2d target = pose.xy() + kStepM * to_frontier.normalized();
+  if (!planning_grid_.traversable(target, planning_.path.unknown_cells)) return false;
+  looked_at_world_.push_back(frontier_world);
+  state_[robot].looking = true;
+  state_[robot].look_t_s = t_s;
+  looks.push_back({robot, {target}});
+  char what[96];
+  std::snprintf(what, sizeof(what), "turns to look at the frontier at (%.2f, %.2f)", frontier_world.x(), frontier_world.y());
+  event(robot, t_s, what);
+  return true;
+}
+
 void MissionPlanner::look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots,
                                        const std::vector<Eigen::Vector2d>& frontier_goals,
                                        const std::vector<Eigen::Vector2d>& centroid_of_goal, std::vector<std::size_t>& idle,
                                        std::vector<Eigen::Vector2d>& idle_positions, std::vector<PathCommand>& looks) {
   // An idle robot that already stands at a frontier's goal or viewpoint (nearer than
   // explore_min_goal_distance_m, so no trip is made to it) but faces away from the frontier turns towards
-  // it, with a short step that way, once per frontier; it takes no goal until the turn is done.
-  constexpr double kFacingRad = M_PI / 4.0;
-  constexpr double kStepM = 0.25;
+  // it (look_towards), once per frontier; it takes no goal until the turn is done.
   for (std::size_t k = 0; k < idle.size();) {
     const std::size_t r = idle[k];
     const planners::Pose2d& pose = robots[r].pose_world;
-    std::optional<Eigen::Vector2d> look;
-    for (std::size_t i = 0; i < frontier_goals.size() && !look; ++i) {
+    bool turned = false;
+    for (std::size_t i = 0; i < frontier_goals.size() && !turned; ++i) {
       const Eigen::Vector2d& frontier = centroid_of_goal[i];
-      const Eigen::Vector2d to_frontier = frontier - pose.xy();
       if ((frontier_goals[i] - pose.xy()).norm() >= mission_.explore_min_goal_distance_m) continue;
-      if (to_frontier.norm() < mission_.explore_min_goal_distance_m) continue;  // its own rim
-      const double off = std::abs(std::remainder(std::atan2(to_frontier.y(), to_frontier.x()) - pose.yaw_rad, 2.0 * M_PI));
-      if (off <= kFacingRad || !planners::line_of_sight(planning_grid_, pose.xy(), frontier)) continue;
+      if ((frontier - pose.xy()).norm() < mission_.explore_min_goal_distance_m) continue;  // its own rim
       bool looked = false;
       for (const Eigen::Vector2d& l : looked_at_world_) looked = looked || (l - frontier).norm() < mission_.explore_goal_valid_m;
-      if (looked) continue;
-      const Eigen::Vector2d target = pose.xy() + kStepM * to_frontier.normalized();
-      if (planning_grid_.traversable(target, planning_.path.unknown_cells)) look = frontier;
+      if (!looked) turned = look_towards(t_s, r, pose, frontier, looks);
     }
-    if (!look) {
+    if (!turned) {
       ++k;
       continue;
     }
-    looked_at_world_.push_back(*look);
-    state_[r].looking = true;
-    looks.push_back({r, {pose.xy() + kStepM * (*look - pose.xy()).normalized()}});
-    char what[96];
-    std::snprintf(what, sizeof(what), "turns to look at the frontier at (%.2f, %.2f)", look->x(), look->y());
-    event(r, t_s, what);
     idle.erase(idle.begin() + static_cast<std::ptrdiff_t>(k));
     idle_positions.erase(idle_positions.begin() + static_cast<std::ptrdiff_t>(k));
   }
@@ -510,7 +526,7 @@ std::vector<PathCommand> MissionPlanner::update(double t_s, const core::PointClo
   std::vector<PathCommand> commands;
   if (!planned()) return commands;
   std::vector<bool> needs_plan(robots_.size(), false);
-  update_goals(t_s, robots, needs_plan);
+  update_goals(t_s, robots, needs_plan, commands);
   if (mission_.kind == MissionKind::kExplore) assign_frontiers(t_s, robots, needs_plan, commands);
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!robots_[r].ground) continue;

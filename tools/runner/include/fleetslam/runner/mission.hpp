@@ -99,6 +99,7 @@ class MissionPlanner {
     std::optional<Eigen::Vector2d> goal_world;
     // Explore: where the frontier of its goal is (the goal itself, or the centroid a viewpoint looks at).
     Eigen::Vector2d frontier_world = Eigen::Vector2d::Zero();
+    Eigen::Vector2d frontier_centroid_world = Eigen::Vector2d::Zero();  // explore: its frontier's centroid
     std::size_t next_waypoint = 0;
     int failures_for_goal = 0;
     bool has_path = false;
@@ -106,13 +107,19 @@ class MissionPlanner {
     bool backtracked = false;  // lost: the drive back has been commanded
     bool exhausted = false;  // explore: no frontier was left for it at the last assignment
     bool looking = false;    // explore: turning to look at a frontier (busy until its path is done)
+    double look_t_s = -1.0;  // ... since this update
     int look_arounds = 0;    // quarter turns since its last frontier
     std::vector<planners::Pose2d> path_world;
   };
 
   void rebuild_grid(const core::PointCloud& map_world, const std::vector<RobotObservation>& robots,
                     const std::vector<planners::SensorView>& views_world);
-  void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan);
+  void update_goals(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
+                    std::vector<PathCommand>& looks);
+  // Turns the robot towards frontier_world with a short step that way (a one-point path), when it faces
+  // more than 45 degrees away, sees it and may step there; the robot is busy until the turn is done.
+  bool look_towards(double t_s, std::size_t robot, const planners::Pose2d& pose, const Eigen::Vector2d& frontier_world,
+                    std::vector<PathCommand>& looks);
   void assign_frontiers(double t_s, const std::vector<RobotObservation>& robots, std::vector<bool>& needs_plan,
                         std::vector<PathCommand>& looks);
   void look_at_frontiers(double t_s, const std::vector<RobotObservation>& robots, const std::vector<Eigen::Vector2d>& frontier_goals,
