@@ -372,10 +372,20 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
   }
   // Coarse-to-fine matching against the merged cloud so far; see the header for the order.
   std::vector<std::size_t> tried_at(robots.size(), static_cast<std::size_t>(-1));  // merged size at last try
+  bool in_order = true;  // later components wait for the input they continue
+  const auto waits = [&](std::size_t i) {
+    return in_order && robots[i].after_id >= 0 && std::any_of(pending.begin(), pending.end(), [&](std::size_t j) {
+             return robots[j].robot_id == robots[i].after_id;
+           });
+  };
   while (!pending.empty()) {
     bool placed_any = false;
     for (auto it = pending.begin(); it != pending.end();) {
       const std::size_t i = *it;
+      if (waits(i)) {
+        ++it;
+        continue;
+      }
       // An empty cloud has nothing to match: placed so that its report is final. A robot already tried
       // against this merged cloud waits.
       const bool untried = !clouds_world[i].empty() && tried_at[i] != merged.cloud.size();
@@ -391,7 +401,14 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
     if (!placed_any && !pending.empty()) {  // nobody overlaps: the first waiting robot keeps its prior
       const auto first = std::find_if(pending.begin(), pending.end(),
                                       [&](std::size_t i) { return robots[i].keep_prior_without_overlap; });
-      if (first == pending.end()) break;  // the rest are left out (below)
+      if (first == pending.end()) {
+        const bool any_waiting = std::any_of(pending.begin(), pending.end(), waits);
+        if (in_order && any_waiting) {  // what they wait for will never be placed: try them anyway
+          in_order = false;
+          continue;
+        }
+        break;  // the rest are left out (below)
+      }
       RobotMergeReport& report = result.robots[*first];
       report.status = report.overlap_points == 0
                           ? "no overlap: prior kept"

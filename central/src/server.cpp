@@ -474,6 +474,7 @@ const ServerMergeReport& Server::merge() {
   int next_id = robots_.empty() ? 0 : robots_.rbegin()->first + 1;
   for (const auto& [id, robot] : robots_) {
     Eigen::Isometry3d previous = T_world_component(id, robot.component);
+    int previous_id = id;
     for (int c : components(robot)) {
       if (c == robot.component) continue;
       RobotCloud input;
@@ -481,6 +482,8 @@ const ServerMergeReport& Server::merge() {
       input.cloud_robot = robot_cloud(id, c);
       input.T_world_robot_prior = previous;
       input.keep_prior_without_overlap = false;
+      input.after_id = previous_id;  // matched after the component it continues
+      previous_id = next_id;
       logger_->info("merge: robot {} is {}'s map component {}", next_id, robot.spec.name, c);
       later.push_back({id, c, next_id++, input.T_world_robot_prior});
       inputs.push_back(std::move(input));

@@ -245,6 +245,40 @@ TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
   EXPECT_GT(c.overlap_with[1].second, c.overlap_with[0].second);
 }
 
+// B (exact prior) sees only x in [4.5, 6], which A does not overlap; B2, a later map component of B
+// (after_id), overlaps both. B2 waits for B: B keeps its prior (nothing else overlaps it yet) and B2 is
+// matched against A and B. Without the order B2 is placed first and B is then matched against it.
+TEST(MapMerger, ALaterComponentWaitsForTheInputItContinues) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d small_error = synthetic::pose(0.5, -0.5, 2.0, Eigen::Vector3d(0.05, 0.03, -0.02));
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 3.0f, kPoseA, identity), robot(1, 4.5f, 6.0f, kPoseC, identity, 15000),
+                                    robot(2, 2.0f, 5.2f, kPoseB, small_error)};
+  robots[2].keep_prior_without_overlap = false;
+  const MergeResult unordered = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(unordered.robots[1].overlap_with.size(), 2u);
+  EXPECT_GT(unordered.robots[1].overlap_with[1].second, 0u) << "B was matched against B2";
+  EXPECT_EQ(unordered.robots[1].status, "fine matched");
+
+  robots[2].after_id = 1;
+  const MergeResult ordered = MapMerger(MapMergerConfig{}).merge(robots);
+  const RobotMergeReport& b = ordered.robots[1];
+  EXPECT_EQ(b.status, "no overlap: prior kept");
+  EXPECT_TRUE(b.T_world_robot.isApprox(kPoseC, 0.0));
+  const RobotMergeReport& b2 = ordered.robots[2];
+  EXPECT_EQ(b2.status, "fine matched");
+  expect_pose_near(b2.T_world_robot, kPoseB, 0.01, 0.5);
+  ASSERT_EQ(b2.overlap_with.size(), 2u);  // A and B
+  EXPECT_GT(b2.overlap_with[1].second, 0u);
+
+  // What B2 waits for cannot join by itself (no overlap, and no prior to keep): the order is let go, B2
+  // is matched against A, and B then against B2.
+  robots[1].keep_prior_without_overlap = false;
+  const MergeResult stranded = MapMerger(MapMergerConfig{}).merge(robots);
+  EXPECT_EQ(stranded.robots[2].status, "fine matched");
+  EXPECT_EQ(stranded.robots[1].status, "fine matched");
+  EXPECT_TRUE(stranded.robots[1].placed);
+}
+
 TEST(MapMerger, EmptyNaNAndNeverOverlappingRobotsLeaveTheOthersUnaffected) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
