@@ -50,6 +50,29 @@ const PathCommand* command_for(const std::vector<PathCommand>& commands, std::si
   return nullptr;
 }
 
+// A 3 x 4 m west room seen whole, walled, with a 1 m doorway (y in [1.5, 2.5]) in its east wall at x = 3;
+// the room beyond is unseen.
+core::PointCloud west_room_with_doorway() {
+  core::PointCloud seen;
+  add_floor(seen, 0.0, 0.0, 2.97, 4.0);
+  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
+  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
+  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
+  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);  // the wall between the rooms, with its doorway
+  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  return seen;
+}
+
+// The same, with what a camera in the west room sees through the doorway: the floor just beyond it and a
+// narrow strip of the east room's floor up to its east wall.
+core::PointCloud doorway_and_strip() {
+  core::PointCloud seen = west_room_with_doorway();
+  add_floor(seen, 2.97, 1.5, 3.4, 2.5);
+  add_floor(seen, 3.4, 1.9, 5.5, 2.1);
+  add_box(seen, 5.5, 1.85, 5.55, 2.15, 0.0, 1.2);
+  return seen;
+}
+
 TEST(MissionPlanner, WaypointMissionPlansAdvancesAndFinishes) {
   const core::PointCloud map = room(6.0, 4.0);
   MissionPlanner mission(waypoints_mission(), planning(),
@@ -200,16 +223,7 @@ TEST(MissionPlanner, AFrontierStillThereWhenItsGoalWasReachedIsNotVisitedAgain) 
 // frontier has no goal; with explore_view_search_m the robot is sent to a cell in front of the doorway
 // that sees it, keeps that goal while the strip's frontier remains, and drops it once the room is seen.
 TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
-  core::PointCloud seen;
-  add_floor(seen, 0.0, 0.0, 2.97, 4.0);   // the west room
-  add_floor(seen, 2.97, 1.5, 3.4, 2.5);   // the doorway and the floor just beyond it
-  add_floor(seen, 3.4, 1.9, 5.5, 2.1);    // a strip of the east room, seen through the doorway
-  add_box(seen, 5.5, 1.85, 5.55, 2.15, 0.0, 1.2);  // the east wall where the strip ends
-  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
-  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
-  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
-  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);  // the wall between the rooms, with its doorway
-  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  const core::PointCloud seen = doorway_and_strip();
   const auto explore = [](double view_search_m) {
     MissionConfig m;
     m.kind = MissionKind::kExplore;
@@ -275,16 +289,7 @@ TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
 // With viewpoints on, a robot that reaches its goal facing away from the frontier (it drove there
 // backwards round an obstacle, say) turns to the frontier before it takes another goal.
 TEST(MissionPlanner, ARobotThatReachesItsGoalFacingAwayTurnsToItsFrontier) {
-  core::PointCloud seen;
-  add_floor(seen, 0.0, 0.0, 2.97, 4.0);
-  add_floor(seen, 2.97, 1.5, 3.4, 2.5);
-  add_floor(seen, 3.4, 1.9, 5.5, 2.1);
-  add_box(seen, 5.5, 1.85, 5.55, 2.15, 0.0, 1.2);
-  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
-  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
-  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
-  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);
-  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
+  const core::PointCloud seen = doorway_and_strip();
   MissionConfig m;
   m.kind = MissionKind::kExplore;
   m.explore_goal_clearance_m = 0.7;
@@ -312,14 +317,8 @@ TEST(MissionPlanner, ARobotThatReachesItsGoalFacingAwayTurnsToItsFrontier) {
 // gets a viewpoint instead, where the robot already stands in front of the doorway: facing away, it
 // turns to look. Without viewpoints nothing is left for it.
 TEST(MissionPlanner, WithViewpointsAFrontierCutOffFromTheRobotIsLookedAt) {
-  core::PointCloud seen;
-  add_floor(seen, 0.0, 0.0, 2.97, 4.0);
+  core::PointCloud seen = west_room_with_doorway();
   add_floor(seen, 4.3, 0.8, 5.9, 3.2);  // the patch: room to stand, nothing leading there
-  add_box(seen, -0.05, -0.05, 2.97, -0.01, 0.0, 1.2);
-  add_box(seen, -0.05, 4.01, 2.97, 4.05, 0.0, 1.2);
-  add_box(seen, -0.05, -0.05, -0.01, 4.05, 0.0, 1.2);
-  add_box(seen, 2.97, -0.05, 3.03, 1.5, 0.0, 1.2);
-  add_box(seen, 2.97, 2.5, 3.03, 4.05, 0.0, 1.2);
   MissionConfig m;
   m.kind = MissionKind::kExplore;
   m.explore_goal_clearance_m = 0.7;
