@@ -88,6 +88,8 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
   min_v_ = min_v;
   cell_w_ = (max_u > min_u ? max_u - min_u : 1.0) / cols;
   cell_h_ = (max_v > min_v ? max_v - min_v : 1.0) / rows;
+  inv_cell_w_ = 1.0 / cell_w_;
+  inv_cell_h_ = 1.0 / cell_h_;
   const double end_u = min_u_ + cell_w_ * cols;
   const double end_v = min_v_ + cell_h_ * rows;
   const std::size_t cells = static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows);

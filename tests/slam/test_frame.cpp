@@ -89,6 +89,45 @@ TEST(FeatureGrid, RadiusQueriesMatchBruteForce) {
   EXPECT_TRUE(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0).empty());
 }
 
+// Queries whose square ends exactly on a feature that lies on a cell edge (or one ulp off it), on grids
+// whose cell sizes have no exact reciprocal: the cell range (computed with the reciprocal) must still
+// reach every cell the constructor put such a feature in.
+TEST(FeatureGrid, QueriesEndingOnCellEdgesFindTheFeaturesThere) {
+  const std::vector<ImageBounds> all_bounds{{-12.3, 651.7, -8.1, 488.9}, {0.0, 640.0 / 3.0, 0.0, 1.0 / 7.0},
+                                            {-1e-3, 1e4 / 3.0, 100.1, 100.1 + 480.0 / 49.0}};
+  for (const ImageBounds& bounds : all_bounds) {
+    const int cols = 37, rows = 23;
+    const double cell_w = (bounds.max_u - bounds.min_u) / cols;
+    const double cell_h = (bounds.max_v - bounds.min_v) / rows;
+    std::vector<Eigen::Vector2d> uv;
+    for (int x = 0; x < cols; ++x) {
+      for (int y = 0; y < rows; y += 5) {
+        const double u = bounds.min_u + cell_w * x;
+        const double v = bounds.min_v + cell_h * y;
+        uv.emplace_back(u, v);
+        uv.emplace_back(std::nextafter(u, -1e300), std::nextafter(v, 1e300));
+        uv.emplace_back(std::nextafter(u, 1e300), std::nextafter(v, -1e300));
+      }
+    }
+    const std::vector<int> level(uv.size(), 0);
+    const FeatureGrid grid(uv, bounds, cols, rows);
+    int found = 0;
+    for (const Eigen::Vector2d& f : uv) {
+      for (const double r : {0.0, 0.25 * cell_w, cell_w, 2.5 * cell_w}) {
+        // The feature on the query square's left, right, top and bottom edge.
+        for (const Eigen::Vector2d& q : {Eigen::Vector2d(f.x() + r, f.y()), Eigen::Vector2d(f.x() - r, f.y()),
+                                         Eigen::Vector2d(f.x(), f.y() + r), Eigen::Vector2d(f.x(), f.y() - r)}) {
+          const std::vector<int> expected = oracle(uv, level, bounds, q.x(), q.y(), r, -1, -1);
+          ASSERT_EQ(grid.features_in_area(uv, level, q.x(), q.y(), r), expected)
+              << "query (" << q.x() << ", " << q.y() << ") r " << r;
+          found += static_cast<int>(expected.size());
+        }
+      }
+    }
+    EXPECT_GT(found, static_cast<int>(uv.size()));  // the queries do find features, edge ones included
+  }
+}
+
 // The appending overload: the same features (in grid order), appended after what the vector held, one
 // vector reused across queries.
 TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {

@@ -114,22 +114,29 @@ class FeatureGrid {
   void scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                   double radius_px, int min_level, int max_level, int x0, int x1, int y0, int y1,
                   Visit&& visit) const;
-  // Cell range along one axis: floor((lo - origin) / cell_size) .. floor((hi - origin) / cell_size),
-  // clamped to [0, count - 1] (truncation where it is >= 0: clamping makes floor unnecessary); false when
-  // [lo, hi] misses the grid.
-  static bool cell_range(double lo, double hi, double origin, double cell_size, int count, int& first, int& last) {
-    const double from = (lo - origin) / cell_size;
-    const double to = (hi - origin) / cell_size;
+  // Cell range along one axis: the cells floor((lo - origin) / cell_size) .. floor((hi - origin) /
+  // cell_size), clamped to [0, count - 1], as the constructor assigns features to cells; false when
+  // [lo, hi] misses the grid. Multiplied by the reciprocal instead of divided (the divisions were a
+  // measurable share of a small query): the product can differ from the quotient in the last bits, so
+  // the range is widened by kCellSlack cells on each side, far more than that rounding and far less than
+  // a cell. At worst a neighbouring cell is scanned whose features then fail the exact distance test.
+  // Clamping makes floor unnecessary (truncation where the value is >= 0).
+  static bool cell_range(double lo, double hi, double origin, double inv_cell_size, int count, int& first,
+                         int& last) {
+    const double from = (lo - origin) * inv_cell_size - kCellSlack;
+    const double to = (hi - origin) * inv_cell_size + kCellSlack;
     if (!(to >= 0.0 && from < count)) return false;
     first = from > 0.0 ? static_cast<int>(from) : 0;
     last = to < count - 1.0 ? static_cast<int>(to) : count - 1;
     return true;
   }
+  static constexpr double kCellSlack = 1e-9;
 
   int cols_ = 0;
   int rows_ = 0;
   double min_u_ = 0.0, min_v_ = 0.0;
   double cell_w_ = 1.0, cell_h_ = 1.0;
+  double inv_cell_w_ = 1.0, inv_cell_h_ = 1.0;  // 1 / cell_w_, 1 / cell_h_ (queries)
   // Cell c (row-major, y * cols + x) holds indices_[cell_start_[c], cell_start_[c + 1]); cols * rows + 1
   // entries once built, none for a default-constructed grid.
   std::vector<int> cell_start_;
@@ -145,8 +152,8 @@ inline bool FeatureGrid::query_cells(const std::vector<Eigen::Vector2d>& uv, con
   if (cell_start_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return false;
   FLEETSLAM_CHECK((min_level < 0 && max_level < 0) || level.size() == uv.size(),
                   "level bounds need one level per feature");
-  return cell_range(u - radius_px, u + radius_px, min_u_, cell_w_, cols_, x0, x1) &&
-         cell_range(v - radius_px, v + radius_px, min_v_, cell_h_, rows_, y0, y1);
+  return cell_range(u - radius_px, u + radius_px, min_u_, inv_cell_w_, cols_, x0, x1) &&
+         cell_range(v - radius_px, v + radius_px, min_v_, inv_cell_h_, rows_, y0, y1);
 }
 
 template <class Visit>
