@@ -93,6 +93,13 @@ TEST_F(ExperimentCli, MatchingWritesTable1) {
   // 2 sequences (TUM, office/alpha) x 2 feature counts x 5 matchers.
   expect_csv(out / "matching" / "matching.csv", "sequence,origin,features,matcher,pairs,repetitions", 20);
   expect_markdown_table(out / "matching" / "matching.md");
+  const std::string md = read_text(out / "matching" / "matching.md");
+  const std::string overhead = "Cross-validation adds to the single-stage grid matcher's median time: ";
+  const auto first_overhead = md.find(overhead);
+  ASSERT_NE(first_overhead, std::string::npos) << md;
+  EXPECT_NE(md.find(overhead, first_overhead + 1), std::string::npos) << "one line per sequence\n" << md;
+  EXPECT_NE(md.find(" % at 250 features, ", first_overhead), std::string::npos) << md;
+  EXPECT_NE(md.find(" % at 500 features.", first_overhead), std::string::npos) << md;
   expect_svg(out / "matching" / "matching_time_tum_rgbd_dataset_freiburg1_rpy_200.svg", "polyline");
   expect_svg(out / "matching" / "matching_precision_office_2robots_alpha.svg", "circle");
   const std::string csv = read_text(out / "matching" / "matching.csv");
