@@ -6,7 +6,8 @@
 //   sequence's ORB settings with num_features replaced). The projection matchers get the constant-velocity
 //   prediction an ORB-SLAM tracker makes, from the ground truth: T_A_B = T_(k-1)_k.
 //   Time: each matcher runs `repetitions` times per pair, each call timed alone (single-threaded OpenCV);
-//   mean and median over every call of every pair.
+//   the grid and cross-validation matchers interleaved (alternating which goes first) so that their
+//   ratio does not depend on the machine's slow spells; mean and median over every call of every pair.
 //   Quality: matches, precision and recall (matchers.hpp) summed over the pairs.
 
 #include <cstdint>
