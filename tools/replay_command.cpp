@@ -65,6 +65,7 @@ struct ReplayOptions {
   std::string vocabulary;  // place_recognition.vocabulary; empty: the config's
   std::string save_map;    // the agent's map is saved here after the run
   std::string load_map;    // the agent localises (localization only) in this saved map
+  bool skip_unreadable = false;  // an undecodable or missing image skips its frame instead of stopping
 };
 
 // Defaults, then the ORB-SLAM settings file's ORB and close-depth values, then the config file.
@@ -92,6 +93,7 @@ std::unique_ptr<core::FrameSource> open_source(const ReplayOptions& o,
   config.groundtruth_file = o.groundtruth;
   config.load_imu = true;  // the agent predicts rotations with the gyroscope (tracking.gyro)
   config.stereo = o.sensor != "rgbd";
+  config.skip_unreadable_frames = o.skip_unreadable;
   if (o.max_frames >= 0) config.stop_index = o.max_frames;
   if (settings) {
     config.rig = settings->rig;
@@ -200,12 +202,23 @@ struct RunResult {
   core::PointCloud dense;
   RunLog log;
   std::size_t frames = 0;
+  // The unreadable frame that stopped the run (without --skip-unreadable): the frames before it were
+  // processed and their outputs are written all the same.
+  std::optional<core::SkippedRow> stopped_at;
 };
 
 RunResult run_agent(slam::Agent& agent, core::FrameSource& source, const core::Logger& logger) {
   RunResult run;
   core::Progress progress = make_progress(source.size(), "frames", logger);
-  while (std::optional<core::SensorFrame> frame = source.next()) {
+  for (;;) {
+    std::optional<core::SensorFrame> frame;
+    try {
+      frame = source.next();
+    } catch (const InputError& e) {
+      run.stopped_at = core::SkippedRow{e.where(), e.why()};
+      break;
+    }
+    if (!frame) break;
     const slam::AgentUpdate update = agent.process(*frame);
     run.log.add(update);
     if (frame->T_world_cam_gt) run.per_frame_groundtruth.push_back({frame->t_ns, *frame->T_world_cam_gt});
@@ -229,14 +242,24 @@ nlohmann::json ate_json(const core::AteResult& ate, const std::string& gt_source
                      {"max", s.max}}}};
 }
 
-void print_summary(const RunResult& run, const std::optional<core::AteResult>& ate, const fs::path& out) {
+nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows) {
+  nlohmann::json json = nlohmann::json::array();
+  for (const core::SkippedRow& row : rows) json.push_back({{"where", row.where}, {"why", row.why}});
+  return json;
+}
+
+void print_summary(const RunResult& run, const std::vector<core::SkippedRow>& unreadable,
+                   const std::optional<core::AteResult>& ate, const fs::path& out) {
   std::printf("frames:       %zu (", run.frames);
   bool first = true;
   for (const auto& [status, count] : run.log.status_counts()) {
     std::printf("%s%s %d", first ? "" : ", ", status.c_str(), count);
     first = false;
   }
-  std::printf(")\nmap:          %zu keyframes, %zu points, %d component(s)\n", run.map.keyframes, run.map.points,
+  std::printf(")\n");
+  if (!unreadable.empty()) std::printf("skipped:      %zu unreadable frame(s)\n", unreadable.size());
+  if (run.stopped_at) std::printf("stopped at:   %s (unreadable frame)\n", run.stopped_at->where.c_str());
+  std::printf("map:          %zu keyframes, %zu points, %d component(s)\n", run.map.keyframes, run.map.points,
               run.map.components);
   std::printf("dense map:    %zu points (%zu back-projected)\n", run.dense_stats.points, run.dense_stats.back_projected);
   std::printf("loops:        %zu closed, %d relocalisation(s)\n", run.log.loops().size(), run.log.relocalizations());
@@ -383,7 +406,9 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"dense_back_projected", run.dense_stats.back_projected},
                             {"tracking_ms", timing_stats_json(run.log.tracking_ms())},
                             {"total_ms", timing_stats_json(run.log.total_ms())},
-                            {"localization_only", config.localization_only}};
+                            {"localization_only", config.localization_only},
+                            {"unreadable_frames_skipped", skipped_rows_json(source->unreadable_frames())}};
+  if (run.stopped_at) metrics["stopped_at"] = {{"where", run.stopped_at->where}, {"why", run.stopped_at->why}};
   if (!o.load_map.empty()) {
     metrics["loaded_map"] = {{"file", o.load_map}, {"load_s", load_s}};
   }
@@ -406,10 +431,16 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     }
   }
   write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
-  if (global.quiet) return;
-  print_summary(run, ate, out);
-  if (!o.load_map.empty()) std::printf("loaded map:   %s in %.3f s (localization only)\n", o.load_map.c_str(), load_s);
-  if (save_s) std::printf("saved map:    %s in %.3f s\n", o.save_map.c_str(), *save_s);
+  if (!global.quiet) {
+    print_summary(run, source->unreadable_frames(), ate, out);
+    if (!o.load_map.empty()) std::printf("loaded map:   %s in %.3f s (localization only)\n", o.load_map.c_str(), load_s);
+    if (save_s) std::printf("saved map:    %s in %.3f s\n", o.save_map.c_str(), *save_s);
+  }
+  if (run.stopped_at) {
+    throw InputError(run.stopped_at->where,
+                     run.stopped_at->why + "; the replay stopped there, after " + std::to_string(run.frames) +
+                         " frame(s), whose outputs are in " + out.string() + " (--skip-unreadable skips such frames)");
+  }
 }
 
 }  // namespace
@@ -431,6 +462,9 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
   cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--skip-unreadable", options->skip_unreadable,
+                "Skip a frame whose image is missing or cannot be decoded (warned, listed in metrics.json) instead "
+                "of stopping there");
   cmd->add_option("--split", options->split,
                   "Run the sequence's N consecutive parts as N robots (first ground-truth pose of each part as its "
                   "prior) and merge their maps in the central unit")

@@ -89,6 +89,7 @@ class RecordedSource final : public FrameSource {
         if (!config_.skip_unreadable_frames) throw;
         // The IMU samples of a skipped frame go to the next frame so that integration has no hole.
         logger_->warn("{}; frame skipped", e.what());
+        unreadable_.push_back({e.where(), e.why()});
         continue;
       }
       frame.imu = imu_until(entry.t_ns);
@@ -101,6 +102,7 @@ class RecordedSource final : public FrameSource {
   std::size_t size() const override { return seq_.entries.size(); }
   const SensorRig& rig() const override { return seq_.rig; }
   const DatasetInfo& info() const override { return seq_.info; }
+  const std::vector<SkippedRow>& unreadable_frames() const override { return unreadable_; }
 
  private:
   void fill_info() {
@@ -149,6 +151,7 @@ class RecordedSource final : public FrameSource {
   RecordedSequence seq_;
   DatasetConfig config_;
   Logger logger_;
+  std::vector<SkippedRow> unreadable_;
   std::size_t cursor_ = 0;
   std::int64_t yielded_ = 0;
   TimeNs last_t_ns_ = 0;

@@ -336,12 +336,17 @@ TEST_F(TumRgbdBadInput, CorruptPngIsAnErrorByDefaultAndASkipOnRequest) {
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(strict->next().has_value());
   expect_input_error([&] { strict->next(); }, {rgb_line(3), "cannot decode", rgb_png(3).filename().string()});
   DatasetConfig config;
+  EXPECT_TRUE(strict->unreadable_frames().empty());
   config.skip_unreadable_frames = true;
-  const auto frames = read_all(*open(dir.path(), config));
+  const auto skipping = open(dir.path(), config);
+  const auto frames = read_all(*skipping);
   ASSERT_EQ(frames.size(), static_cast<std::size_t>(kFrames - 1));
   EXPECT_EQ(frames[3].t_ns, stamp(4));
   EXPECT_EQ(frames[3].imu.size(), 6u);  // the skipped frame's samples are not lost
   EXPECT_EQ(frames[3].sequence, 3);
+  ASSERT_EQ(skipping->unreadable_frames().size(), 1u);  // what was skipped, and where
+  EXPECT_NE(skipping->unreadable_frames()[0].where.find(rgb_line(3)), std::string::npos);
+  EXPECT_NE(skipping->unreadable_frames()[0].why.find("cannot decode"), std::string::npos);
 }
 
 TEST_F(TumRgbdBadInput, TruncatedPngAndEightBitDepth) {

@@ -176,6 +176,77 @@ TEST(ReplayCli, BadVocabularyFileEndsWithOneLine) {
   EXPECT_NE(r.output.find("missing.fsvoc"), std::string::npos) << r.output;
 }
 
+// The first `frames` rows of the TUM excerpt's image lists, with their images, and its other files.
+void copy_tum_start(const fs::path& to, int frames) {
+  fs::create_directories(to / "rgb");
+  fs::create_directories(to / "depth");
+  for (const char* list : {"rgb.txt", "depth.txt"}) {
+    std::ifstream in(kTum / list);
+    std::ofstream out(to / list);
+    int rows = 0;
+    for (std::string line; std::getline(in, line) && rows < frames;) {
+      out << line << "\n";
+      if (line.empty() || line[0] == '#') continue;
+      ++rows;
+      const std::string file = line.substr(line.find(' ') + 1);
+      fs::copy_file(kTum / file, to / file);
+    }
+  }
+  for (const char* file : {"groundtruth.txt", "accelerometer.txt"}) fs::copy_file(kTum / file, to / file);
+}
+
+// The image file of data row `row` (from 0) of a TUM list.
+std::string tum_image(const fs::path& list, int row) {
+  std::ifstream in(list);
+  int rows = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    if (rows++ == row) return line.substr(line.find(' ') + 1);
+  }
+  return {};
+}
+
+TEST(ReplayCli, UnreadableFrameStopsTheRunButKeepsWhatCameBeforeItOrIsSkipped) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  const fs::path sequence = dir / "sequence";
+  copy_tum_start(sequence, 12);
+  const std::string corrupt = tum_image(sequence / "rgb.txt", 7);
+  ASSERT_FALSE(corrupt.empty());
+  const std::string png = read_text(sequence / corrupt);
+  std::ofstream(sequence / corrupt, std::ios::binary | std::ios::trunc) << png.substr(0, png.size() / 3);
+  const std::string common = "-q replay '" + sequence.string() + "' --calibration '" +
+                             (kData / "calib" / "TUM1.yaml").string() + "' --out '";
+
+  RunResult r = run(common + (dir / "strict").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("fleetslam: error: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rgb.txt:11"), std::string::npos) << r.output;  // 3 header lines + row 7
+  EXPECT_NE(r.output.find(fs::path(corrupt).filename().string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--skip-unreadable"), std::string::npos) << r.output;
+  // The seven frames before it were processed and are written.
+  EXPECT_EQ(core::read_trajectory(dir / "strict" / "trajectory.txt").size(), 7u);
+  EXPECT_EQ(lines(dir / "strict" / "timings.csv"), 8u);
+  std::ifstream strict_file(dir / "strict" / "metrics.json");
+  const nlohmann::json strict = nlohmann::json::parse(strict_file);
+  EXPECT_EQ(strict["frames"], 7);
+  ASSERT_TRUE(strict.contains("stopped_at"));
+  EXPECT_NE(strict["stopped_at"]["where"].get<std::string>().find("rgb.txt:11"), std::string::npos);
+  EXPECT_TRUE(strict["unreadable_frames_skipped"].empty());
+  EXPECT_TRUE(strict.contains("ate"));
+
+  r = run(common + (dir / "skipping").string() + "' --skip-unreadable");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(core::read_trajectory(dir / "skipping" / "trajectory.txt").size(), 11u);
+  std::ifstream skipping_file(dir / "skipping" / "metrics.json");
+  const nlohmann::json skipping = nlohmann::json::parse(skipping_file);
+  EXPECT_EQ(skipping["frames"], 11);
+  EXPECT_FALSE(skipping.contains("stopped_at"));
+  ASSERT_EQ(skipping["unreadable_frames_skipped"].size(), 1u);
+  EXPECT_NE(skipping["unreadable_frames_skipped"][0]["where"].get<std::string>().find("rgb.txt:11"), std::string::npos);
+  EXPECT_NE(skipping["unreadable_frames_skipped"][0]["why"].get<std::string>().find("cannot decode"), std::string::npos);
+}
+
 TEST(ReplayCli, BadInputEndsWithOneClearLine) {
   const fs::path dir = test_dir();
   RunResult r = run("replay '" + (dir / "absent").string() + "' --out '" + (dir / "run").string() + "'");

@@ -125,6 +125,8 @@ class FrameSource {
   virtual std::size_t size() const = 0;
   virtual const SensorRig& rig() const = 0;
   virtual const DatasetInfo& info() const = 0;
+  // The frames next() has skipped as unreadable so far (list row and why), in stream order.
+  virtual const std::vector<SkippedRow>& unreadable_frames() const = 0;
 };
 
 // A writer of frames. write() takes frames in time order; close() completes the files (lists that
