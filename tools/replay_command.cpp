@@ -407,6 +407,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"tracking_ms", timing_stats_json(run.log.tracking_ms())},
                             {"total_ms", timing_stats_json(run.log.total_ms())},
                             {"localization_only", config.localization_only},
+                            {"skipped_rows", skipped_rows_json(source->info().skipped)},
                             {"unreadable_frames_skipped", skipped_rows_json(source->unreadable_frames())}};
   if (run.stopped_at) metrics["stopped_at"] = {{"where", run.stopped_at->where}, {"why", run.stopped_at->why}};
   if (!o.load_map.empty()) {
@@ -463,8 +464,8 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--skip-unreadable", options->skip_unreadable,
-                "Skip a frame whose image is missing or cannot be decoded (warned, listed in metrics.json) instead "
-                "of stopping there");
+                "Skip a frame whose image is missing (dropped while the lists are read: skipped_rows in "
+                "metrics.json) or cannot be decoded (unreadable_frames_skipped) instead of stopping there");
   cmd->add_option("--split", options->split,
                   "Run the sequence's N consecutive parts as N robots (first ground-truth pose of each part as its "
                   "prior) and merge their maps in the central unit")

@@ -245,6 +245,20 @@ TEST(ReplayCli, UnreadableFrameStopsTheRunButKeepsWhatCameBeforeItOrIsSkipped) {
   ASSERT_EQ(skipping["unreadable_frames_skipped"].size(), 1u);
   EXPECT_NE(skipping["unreadable_frames_skipped"][0]["where"].get<std::string>().find("rgb.txt:11"), std::string::npos);
   EXPECT_NE(skipping["unreadable_frames_skipped"][0]["why"].get<std::string>().find("cannot decode"), std::string::npos);
+
+  // A missing image is found while the lists are read: an error before any frame, or a dropped row.
+  fs::remove(sequence / tum_image(sequence / "rgb.txt", 4));
+  r = run(common + (dir / "absent").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("is absent"), std::string::npos) << r.output;
+  r = run(common + (dir / "absent").string() + "' --skip-unreadable");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream absent_file(dir / "absent" / "metrics.json");
+  const nlohmann::json absent = nlohmann::json::parse(absent_file);
+  EXPECT_EQ(absent["frames"], 10);
+  ASSERT_FALSE(absent["skipped_rows"].empty());
+  EXPECT_NE(absent["skipped_rows"].dump().find("rgb.txt:8"), std::string::npos) << absent["skipped_rows"].dump();
+  EXPECT_EQ(absent["unreadable_frames_skipped"].size(), 1u);
 }
 
 TEST(ReplayCli, BadInputEndsWithOneClearLine) {
