@@ -337,7 +337,9 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
   }
   const central::MergeResult& m = report.merge;
   const nlohmann::json metrics = {{"command", "fleetslam replay --split"}, {"dataset", o.dataset}, {"split", parts},
-                                  {"frames", total}, {"robots", robots}, {"merge", central::to_json(m)}};
+                                  {"frames", k}, {"robots", robots}, {"merge", central::to_json(m)},
+                                  {"skipped_rows", skipped_rows_json(source.info().skipped)},
+                                  {"unreadable_frames_skipped", skipped_rows_json(source.unreadable_frames())}};
   write_text_file(out / "metrics.json", metrics.dump(2) + "\n");
   if (global.quiet) return;
   for (const nlohmann::json& entry : robots) {

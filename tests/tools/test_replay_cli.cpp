@@ -86,6 +86,8 @@ TEST(ReplayCli, SplitRunsTheHalvesAsTwoRobotsAndMergesTheirMaps) {
   std::ifstream metrics_file(out / "metrics.json");
   const nlohmann::json metrics = nlohmann::json::parse(metrics_file);
   ASSERT_EQ(metrics["robots"].size(), 2u);
+  EXPECT_EQ(metrics["frames"], 200);
+  EXPECT_TRUE(metrics["unreadable_frames_skipped"].empty());
   for (const nlohmann::json& robot : metrics["robots"]) {
     EXPECT_EQ(robot["frames"], 100) << robot.dump();
     EXPECT_EQ(robot["tracked"], 100) << robot.dump();
