@@ -3,8 +3,9 @@
 # robot, central unit merging their maps and planning the robots' paths; judged against ground truth
 # and the scenario's pass criteria, report.html), then the real data: the dataset
 # readers on TUM RGB-D and EuRoC, one agent over the real TUM excerpt (RGB-D) and one over the EuRoC
-# excerpt (stereo) (trajectory, keyframes, dense map, timings, ATE), the paper's split experiment (its halves as two robots merged by the central unit), real
-# reference trajectories evaluated, and a short synthetic sequence generated, all under out/.
+# excerpt (stereo) (trajectory, keyframes, dense map, timings, ATE), the paper's split experiment (its
+# halves as two robots merged by the central unit), real reference trajectories evaluated, and a short
+# synthetic sequence generated, all under out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh release

@@ -19,6 +19,14 @@ core::Logger make_cli_logger(const std::string& command, const GlobalOptions& gl
   return core::make_logger(command, level);
 }
 
+nlohmann::json skipped_row_json(const core::SkippedRow& row) { return {{"where", row.where}, {"why", row.why}}; }
+
+nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows) {
+  nlohmann::json json = nlohmann::json::array();
+  for (const core::SkippedRow& row : rows) json.push_back(skipped_row_json(row));
+  return json;
+}
+
 core::Progress make_progress(std::size_t total, const std::string& label, const core::Logger& logger) {
   if (::isatty(::fileno(stderr)) == 0) return core::Progress(label, total, core::Progress::log_sink(logger));
   const core::Progress::Sink bar = [](std::size_t done, std::size_t all, const std::string& what) {

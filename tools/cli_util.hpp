@@ -5,11 +5,13 @@
 #include <cstddef>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "fleetslam/core/config.hpp"
+#include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/runner/outputs.hpp"
 
@@ -21,6 +23,10 @@ core::Logger make_cli_logger(const std::string& command, const GlobalOptions& gl
 // On a terminal, a bar redrawn in place ("[####    ] 45 % (450/1000 frames)"); otherwise a log line
 // per 10 %.
 core::Progress make_progress(std::size_t total, const std::string& label, const core::Logger& logger);
+
+// A list row a reader dropped or skipped, as {"where": "file:line", "why": ...}; rows as an array.
+nlohmann::json skipped_row_json(const core::SkippedRow& row);
+nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows);
 
 // Shared with the runner library: writing text outputs, timings and loop closures as JSON.
 using runner::loop_event_json;

@@ -80,13 +80,11 @@ nlohmann::json rig_json(const core::SensorRig& rig) {
 
 nlohmann::json info_json(const core::FrameSource& source) {
   const core::DatasetInfo& info = source.info();
-  nlohmann::json skipped = nlohmann::json::array();
-  for (const core::SkippedRow& row : info.skipped) skipped.push_back({{"where", row.where}, {"why", row.why}});
   return {{"path", info.root.string()},
           {"format", core::to_string(info.format)},
           {"frames", info.frames},
           {"listed_frames", info.listed_frames},
-          {"skipped_rows", skipped},
+          {"skipped_rows", skipped_rows_json(info.skipped)},
           {"first_t_ns", info.first_t_ns},
           {"last_t_ns", info.last_t_ns},
           {"duration_s", info.duration_s()},

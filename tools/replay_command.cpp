@@ -242,12 +242,6 @@ nlohmann::json ate_json(const core::AteResult& ate, const std::string& gt_source
                      {"max", s.max}}}};
 }
 
-nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows) {
-  nlohmann::json json = nlohmann::json::array();
-  for (const core::SkippedRow& row : rows) json.push_back({{"where", row.where}, {"why", row.why}});
-  return json;
-}
-
 void print_summary(const RunResult& run, const std::vector<core::SkippedRow>& unreadable,
                    const std::optional<core::AteResult>& ate, const fs::path& out) {
   std::printf("frames:       %zu (", run.frames);
@@ -411,7 +405,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
                             {"localization_only", config.localization_only},
                             {"skipped_rows", skipped_rows_json(source->info().skipped)},
                             {"unreadable_frames_skipped", skipped_rows_json(source->unreadable_frames())}};
-  if (run.stopped_at) metrics["stopped_at"] = {{"where", run.stopped_at->where}, {"why", run.stopped_at->why}};
+  if (run.stopped_at) metrics["stopped_at"] = skipped_row_json(*run.stopped_at);
   if (!o.load_map.empty()) {
     metrics["loaded_map"] = {{"file", o.load_map}, {"load_s", load_s}};
   }
