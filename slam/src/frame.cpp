@@ -166,8 +166,14 @@ std::optional<Eigen::Vector3d> Frame::unproject(std::size_t i) const {
 void Frame::finalize() {
   const std::size_t n = uv.size();
   if (depth_m.empty()) depth_m.assign(n, -1.0);
-  if (u_right.empty()) u_right.assign(n, -1.0);
-  FLEETSLAM_CHECK(keypoints.size() == n && level.size() == n && depth_m.size() == n && u_right.size() == n,
+  FLEETSLAM_CHECK(depth_m.size() == n, "Frame::finalize: per-feature vectors differ in size");
+  if (u_right.empty()) {
+    u_right.assign(n, -1.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (has_right(i)) u_right[i] = uv[i].x() - bf / depth_m[i];
+    }
+  }
+  FLEETSLAM_CHECK(keypoints.size() == n && level.size() == n && u_right.size() == n,
                   "Frame::finalize: per-feature vectors differ in size");
   FLEETSLAM_CHECK(static_cast<std::size_t>(descriptors.rows) == n || (n == 0 && descriptors.empty()),
                   "Frame::finalize: descriptor rows differ from the number of features");

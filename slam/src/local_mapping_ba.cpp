@@ -5,17 +5,10 @@
 #include <set>
 
 #include "fleetslam/slam/local_mapping.hpp"
+#include "frame_observation.hpp"
 
 namespace fleetslam::slam {
 namespace {
-
-Observation observation_of(const Frame& f, std::size_t i) {
-  Observation o;
-  o.uv = f.uv[i];
-  o.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
-  o.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
-  return o;
-}
 
 // Current keyframe and its strongest covisible neighbours.
 std::vector<KeyframeId> local_window(const Keyframe& current, int max_keyframes) {
@@ -114,8 +107,11 @@ bool is_redundant(const Keyframe& kf, const Map& map, const LocalMappingConfig& 
   for (std::size_t i = 0; i < kf.frame.size(); ++i) {
     const MapPoint* p = kf.frame.map_points[i] == kNoMapPoint ? nullptr : map.point(kf.frame.map_points[i]);
     if (p == nullptr) continue;
-    // Depth sensors: only close points count (far ones are weak constraints anyway).
-    if (kf.frame.bf > 0.0 && (!kf.frame.has_depth(i) || kf.frame.depth_m[i] > kf.frame.close_depth_m)) continue;
+    // Depth sensors: only close points count (far ones are weak constraints anyway); close_depth_m 0: all are.
+    if (kf.frame.bf > 0.0 && (!kf.frame.has_depth(i) ||
+                              (kf.frame.close_depth_m > 0.0 && kf.frame.depth_m[i] > kf.frame.close_depth_m))) {
+      continue;
+    }
     ++points;
     if (static_cast<int>(p->observations.size()) <= config.redundant_observers) continue;
     int observers = 0;
@@ -138,6 +134,9 @@ std::vector<KeyframeId> LocalMapper::cull_keyframes(KeyframeId current, Map& map
   const Keyframe* kf = map.keyframe(current);
   if (kf == nullptr) return culled;
   for (KeyframeId id : kf->best_covisible(-1)) {
+    // Keyframes newer than `current` wait in the threaded mapper's queue: their own pass (points,
+    // fusion, BA, the place-recognition database) comes first.
+    if (id > current) continue;
     const Keyframe* candidate = map.keyframe(id);
     if (candidate == nullptr || candidate->root || !is_redundant(*candidate, map, config_)) continue;
     if (map.erase_keyframe(id)) culled.push_back(id);

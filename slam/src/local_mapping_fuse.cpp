@@ -26,8 +26,8 @@ int best_feature(const Keyframe& kf, const MapPoint& p, const ProjectedPoint& pr
     const auto k = static_cast<std::size_t>(i);
     double e2 = (proj.uv - f.uv[k]).squaredNorm();
     double chi2 = kChi2Mono;
-    if (f.has_depth(k) && proj.u_right >= 0.0) {
-      e2 += (proj.u_right - f.u_right[k]) * (proj.u_right - f.u_right[k]);
+    if (f.has_right(k) && proj.u_right) {
+      e2 += (*proj.u_right - f.u_right[k]) * (*proj.u_right - f.u_right[k]);
       chi2 = kChi2Stereo;
     }
     if (e2 * f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[k])] > chi2) continue;

@@ -55,7 +55,8 @@ std::map<std::size_t, EpipolarMatch> epipolar_matches(const View& v1, const View
   const Frame& f2 = v2.kf.frame;
   const Eigen::Matrix3d F21 = fundamental_21(v1, v2);
   const Eigen::Vector3d epipole = f2.camera.K() * (v2.T_cw * v1.kf.center());
-  const bool epipole_valid = epipole.z() > 0.0;
+  // Projective: view 1's centre behind view 2 (moving backwards) meets the image at the same point.
+  const bool epipole_valid = epipole.z() != 0.0;
   const Eigen::Vector2d e2 = epipole_valid ? Eigen::Vector2d(epipole.head<2>() / epipole.z()) : Eigen::Vector2d::Zero();
   const std::vector<std::size_t> free2 = free_features(f2);
   std::map<std::size_t, EpipolarMatch> best_for_2;
@@ -69,9 +70,12 @@ std::map<std::size_t, EpipolarMatch> epipolar_matches(const View& v1, const View
       const double sigma2 = f2.pyramid.sigma2[static_cast<std::size_t>(f2.level[i2])];
       const double d = line.dot(Eigen::Vector3d(f2.uv[i2].x(), f2.uv[i2].y(), 1.0));
       if (d * d / norm2 > kEpipolarChi2 * sigma2) continue;
-      // Near the epipole the line direction is ill-defined (unless depth pins the point down).
+      // Near the epipole the line direction is ill-defined (unless depth pins the point down): ORB-SLAM's
+      // squared distance below 100 * scale, a radius of 10 * sqrt(scale) px.
       const double scale = f2.pyramid.scale[static_cast<std::size_t>(f2.level[i2])];
-      if (epipole_valid && !f1.has_depth(i1) && !f2.has_depth(i2) && (f2.uv[i2] - e2).norm() < 100.0 * scale) continue;
+      if (epipole_valid && !f1.has_depth(i1) && !f2.has_depth(i2) && (f2.uv[i2] - e2).squaredNorm() < 100.0 * scale) {
+        continue;
+      }
       const int distance = hamming_distance(f1.descriptors.ptr<std::uint8_t>(static_cast<int>(i1)),
                                             f2.descriptors.ptr<std::uint8_t>(static_cast<int>(i2)));
       if (distance < best) {
@@ -119,7 +123,7 @@ bool reprojects(const View& v, std::size_t i, const Eigen::Vector3d& p_world) {
   const double w = f.camera.fy() * p.y() / p.z() + f.camera.cy();
   double e2 = (u - f.uv[i].x()) * (u - f.uv[i].x()) + (w - f.uv[i].y()) * (w - f.uv[i].y());
   const double sigma2 = f.pyramid.sigma2[static_cast<std::size_t>(f.level[i])];
-  if (!f.has_depth(i)) return e2 <= kChi2Mono * sigma2;
+  if (!f.has_right(i)) return e2 <= kChi2Mono * sigma2;
   const double u_right = u - f.bf / p.z();
   e2 += (u_right - f.u_right[i]) * (u_right - f.u_right[i]);
   return e2 <= kChi2Stereo * sigma2;

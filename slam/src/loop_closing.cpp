@@ -13,6 +13,7 @@
 
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
+#include "frame_observation.hpp"
 
 namespace fleetslam::slam {
 
@@ -62,9 +63,7 @@ PoseResult refine_on_points(Frame f, const std::vector<MapPointId>& points, cons
     if (p == nullptr) continue;
     PoseObservation o;
     o.p_world = p->position;
-    o.obs.uv = f.uv[i];
-    o.obs.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
-    o.obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
+    o.obs = observation_of(f, i);
     observations.push_back(o);
   }
   return optimize_pose(f.camera, f.bf, observations, T_cw, OptimizerConfig{});

@@ -10,6 +10,7 @@
 #include <spdlog/logger.h>
 
 #include "fleetslam/slam/loop_closing.hpp"
+#include "frame_observation.hpp"
 
 namespace fleetslam::slam {
 namespace {
@@ -34,14 +35,6 @@ struct RelativePoseError {
     return true;
   }
 };
-
-Observation observation_of(const Frame& f, std::size_t i) {
-  Observation o;
-  o.uv = f.uv[i];
-  o.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
-  o.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
-  return o;
-}
 
 // The keyframe a point's position is held relative to: its reference keyframe, or its first observer.
 KeyframeId anchor_of(const MapPoint& p, const Map& map) {

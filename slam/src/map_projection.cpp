@@ -35,7 +35,7 @@ std::optional<ProjectedPoint> project_map_point(const MapPoint& point, const Fra
   projected.id = point.id;
   projected.uv = uv;
   projected.depth_m = p_cam.z();
-  projected.u_right = frame.bf > 0.0 ? uv.x() - frame.bf / p_cam.z() : -1.0;
+  if (frame.bf > 0.0) projected.u_right = uv.x() - frame.bf / p_cam.z();
   projected.level = point.predict_level(distance, frame.pyramid);
   projected.view_cos = view_cos;
   return projected;
@@ -65,7 +65,7 @@ Candidate best_candidate(const Frame& frame, const ProjectedPoint& p, const Desc
     if (!feature_is_free(frame, i, map)) continue;
     const auto index = static_cast<std::size_t>(i);
     // With a (virtual) right coordinate, depth must agree too: the same radius on u_right.
-    if (p.u_right >= 0.0 && frame.u_right[index] >= 0.0 && std::abs(p.u_right - frame.u_right[index]) > radius) {
+    if (p.u_right && frame.has_right(index) && std::abs(*p.u_right - frame.u_right[index]) > radius) {
       continue;
     }
     const int distance = hamming_distance(descriptor.data(), frame.descriptors.ptr<std::uint8_t>(i));

@@ -35,7 +35,7 @@ Intrinsics intrinsics_of(const core::PinholeCamera& camera, double bf) {
   return {camera.fx(), camera.fy(), camera.cx(), camera.cy(), bf};
 }
 
-bool is_stereo(const Observation& obs) { return obs.u_right >= 0.0; }
+bool is_stereo(const Observation& obs) { return obs.u_right.has_value(); }
 
 // Weighted residual r = sqrt(inv_sigma2) (z - h(p_cam)) of a mono (kDim 2) or stereo (kDim 3) observation,
 // so that r.r is the chi-square statistic ORB-SLAM thresholds. dr_dp (optional) is d r / d p_cam.
@@ -49,7 +49,7 @@ bool weighted_residual(const Intrinsics& k, const Observation& obs, const Vector
   const double u = k.fx * p_cam.x() * inv_z + k.cx;
   r[0] = w * (obs.uv.x() - u);
   r[1] = w * (obs.uv.y() - (k.fy * p_cam.y() * inv_z + k.cy));
-  if constexpr (kDim == 3) r[2] = w * (obs.u_right - (u - k.bf * inv_z));
+  if constexpr (kDim == 3) r[2] = w * (*obs.u_right - (u - k.bf * inv_z));
   if (dr_dp != nullptr) {
     const double inv_z2 = inv_z * inv_z;
     Eigen::Matrix<double, kDim, 3>& J = *dr_dp;
@@ -409,7 +409,7 @@ double reprojection_rms_px(const Intrinsics& k, const BaProblem& input, const st
     const BaObservation& o = input.observations[i];
     Observation unweighted = o.obs;
     unweighted.inv_sigma2 = 1.0;
-    unweighted.u_right = -1.0;
+    unweighted.u_right.reset();
     const double squared = chi2_of(k, unweighted, state.poses[static_cast<std::size_t>(o.keyframe)],
                                    state.points[static_cast<std::size_t>(o.point)]);
     if (squared < 0.0) continue;  // behind the camera at this state: no pixel error to speak of

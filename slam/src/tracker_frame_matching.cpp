@@ -6,6 +6,7 @@
 #include <spdlog/logger.h>
 
 #include "fleetslam/slam/tracker.hpp"
+#include "frame_observation.hpp"
 #include "stopwatch.hpp"
 #include "tracker_working.hpp"
 
@@ -56,9 +57,7 @@ int Tracker::optimize(Working& w, const Map& map, const Eigen::Isometry3d& T_cam
     if (p == nullptr && !w.temporary[i]) continue;
     PoseObservation o;
     o.p_world = p != nullptr ? p->position : *w.temporary[i];
-    o.obs.uv = f.uv[i];
-    o.obs.u_right = f.has_depth(i) ? f.u_right[i] : -1.0;
-    o.obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[i])];
+    o.obs = observation_of(f, i);
     observations.push_back(o);
     feature_of.push_back(i);
   }

@@ -271,23 +271,95 @@ TEST(LocalMapping, RecentPointsAreCulledByFoundRatioAndObservations) {
   expect_consistent(map);
 }
 
-TEST(LocalMapping, RedundantKeyframesAreCulled) {
-  Map map;
-  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+// Five keyframes (the root and four more) that all see the same 60 points at 2 m, whose features count
+// as close below close_depth_m.
+std::vector<KeyframeId> five_keyframes_seeing_everything(Map& map, LocalMapper& mapper, double close_depth_m) {
   Frame first = make_frame(60, 1);
+  first.close_depth_m = close_depth_m;
   first.T_world_cam = at_x(0.0);
   KeyframeId last = mapper.insert_keyframe(first, 0, true, map, nullptr);
   std::vector<KeyframeId> ids{last};
-  for (int k = 1; k <= 4; ++k) {  // four more keyframes seeing every point: all redundant but the root
+  for (int k = 1; k <= 4; ++k) {
     last = mapper.insert_keyframe(tracked_frame(map, last, 0.01 * k, k), 0, false, map, nullptr);
     ids.push_back(last);
   }
-  // Neighbours are visited strongest first (all equal: oldest first); the root is never culled. Each
-  // culled keyframe removes an observer, and culling stops once a point has fewer than 3 others.
-  const std::vector<KeyframeId> culled = mapper.cull_keyframes(last, map);
-  EXPECT_EQ(culled, (std::vector<KeyframeId>{ids[1], ids[2]}));
-  EXPECT_NE(map.keyframe(ids.front()), nullptr);
-  EXPECT_EQ(map.keyframe_count(), 3u);
+  return ids;
+}
+
+TEST(LocalMapping, RedundantKeyframesAreCulled) {
+  // 3 m: every point is close. 0: no threshold, every depth is close (as in tracking and point creation).
+  for (const double close_depth_m : {3.0, 0.0}) {
+    Map map;
+    LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+    const std::vector<KeyframeId> ids = five_keyframes_seeing_everything(map, mapper, close_depth_m);
+    // Neighbours are visited strongest first (all equal: oldest first); the root is never culled. Each
+    // culled keyframe removes an observer, and culling stops once a point has fewer than 3 others.
+    const std::vector<KeyframeId> culled = mapper.cull_keyframes(ids.back(), map);
+    EXPECT_EQ(culled, (std::vector<KeyframeId>{ids[1], ids[2]})) << "close depth " << close_depth_m;
+    EXPECT_NE(map.keyframe(ids.front()), nullptr);
+    EXPECT_EQ(map.keyframe_count(), 3u);
+    expect_consistent(map);
+  }
+}
+
+TEST(LocalMapping, KeyframesWithOnlyFarPointsAreNotCulled) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  const std::vector<KeyframeId> ids = five_keyframes_seeing_everything(map, mapper, 1.0);  // all at 2 m: far
+  EXPECT_TRUE(mapper.cull_keyframes(ids.back(), map).empty());
+  EXPECT_EQ(map.keyframe_count(), 5u);
+}
+
+// In threaded mode keyframes are in the map while they wait for their own mapping pass: processing an
+// older keyframe must not cull them.
+TEST(LocalMapping, KeyframesNewerThanTheCurrentOneAreNotCulled) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  const std::vector<KeyframeId> ids = five_keyframes_seeing_everything(map, mapper, 3.0);
+  // ids[3] and ids[4] are as redundant as ids[1], and would be culled next without the rule.
+  EXPECT_EQ(mapper.cull_keyframes(ids[2], map), (std::vector<KeyframeId>{ids[1]}));
+  EXPECT_NE(map.keyframe(ids[3]), nullptr);
+  EXPECT_NE(map.keyframe(ids[4]), nullptr);
+  expect_consistent(map);
+}
+
+// ORB-SLAM leaves out epipolar pairs within 10 * sqrt(scale) px of the epipole (squared distance below
+// 100 * scale). Moving 1 m forward, a point 4 m ahead seen 37.5 px from the epipole (the focus of
+// expansion) has 1.4 degrees of parallax and is triangulated.
+TEST(LocalMapping, TriangulatesAPointNearButNotAtTheEpipole) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  const Eigen::Vector3d p_world(0.3, 0.0, 4.0);
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = Eigen::Isometry3d::Identity();
+  // One feature without depth (beyond the sensor's range), not yet a point: at p_world, 357 px.
+  const Eigen::Vector2d uv0 = *first.camera.project(p_world);
+  first.keypoints.emplace_back(static_cast<float>(uv0.x()), static_cast<float>(uv0.y()), 31.0f, 0.0f, 0.0f, 0);
+  first.uv.push_back(uv0);
+  first.level.push_back(0);
+  first.depth_m.push_back(-1.0);
+  first.u_right.push_back(-1.0);
+  cv::Mat descriptor(1, 32, CV_8UC1, cv::Scalar(0x5A));
+  first.descriptors.push_back(descriptor);
+  first.map_points.push_back(kNoMapPoint);
+  first.outlier.push_back(false);
+  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
+  ASSERT_EQ(map.keyframe(k0)->frame.map_points.back(), kNoMapPoint);
+
+  Frame second = map.keyframe(k0)->frame;  // tracks the 60 points; the free feature moves out from the centre
+  second.t_ns = 1;
+  second.T_world_cam = Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, 1.0));
+  const Eigen::Vector2d uv1 = *second.camera.project(p_world - Eigen::Vector3d(0.0, 0.0, 1.0));
+  ASSERT_NEAR((uv0 - Eigen::Vector2d(second.camera.cx(), second.camera.cy())).norm(), 37.5, 1e-9);
+  second.keypoints.back().pt = cv::Point2f(static_cast<float>(uv1.x()), static_cast<float>(uv1.y()));
+  second.uv.back() = uv1;
+  const KeyframeId k1 = mapper.insert_keyframe(second, 0, false, map, nullptr);
+
+  EXPECT_EQ(mapper.triangulate(k1, map), 1);
+  const MapPoint* p = map.point(map.keyframe(k1)->frame.map_points.back());
+  ASSERT_NE(p, nullptr);
+  EXPECT_LT((p->position - p_world).norm(), 1e-6);
+  EXPECT_EQ(p->observations.count(k0), 1u);
   expect_consistent(map);
 }
 

@@ -78,7 +78,7 @@ Observation observe(const Eigen::Vector3d& p_cam, int level, bool stereo, double
 void corrupt(Observation& obs, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(0.0, 639.0), v(0.0, 479.0), disparity(2.0, 40.0);
   obs.uv = Eigen::Vector2d(u(rng), v(rng));
-  if (obs.u_right >= 0.0) obs.u_right = std::max(0.0, obs.uv.x() - disparity(rng));
+  if (obs.u_right) obs.u_right = obs.uv.x() - disparity(rng);
 }
 
 struct PoseScene {
@@ -114,7 +114,7 @@ core::Matrix6d pose_information(const PoseScene& scene) {
   for (std::size_t i = 0; i < scene.observations.size(); ++i) {
     if (scene.corrupted[i]) continue;
     const PoseObservation& o = scene.observations[i];
-    const bool stereo = o.obs.u_right >= 0.0;
+    const bool stereo = o.obs.u_right.has_value();
     const auto h = [&](const core::Vector6d& xi) {
       const Eigen::Vector3d p_cam = core::se3_exp(xi) * scene.T_cam_world * o.p_world;
       const Eigen::Vector2d uv = *test_camera().project(p_cam);
@@ -152,6 +152,32 @@ TEST(OptimizePose, RecoversAPerturbedPoseExactlyWithoutNoise) {
     EXPECT_EQ(count(r.outlier), 0);
     EXPECT_EQ(r.outlier.size(), scene.observations.size());
   }
+}
+
+// A close point near the left edge has a negative virtual right coordinate (u - bf / z < 0): still a depth
+// constraint, so a right coordinate that disagrees with the point's depth makes it an outlier, and one
+// that agrees keeps it.
+TEST(OptimizePose, ANegativeRightCoordinateIsStillADepthConstraint) {
+  SceneOptions options;
+  options.points = 60;
+  PoseScene scene = make_pose_scene(options);
+  const Eigen::Isometry3d T_world_cam = scene.T_cam_world.inverse();
+  const Eigen::Vector3d p_cam = *test_camera().unproject(Eigen::Vector2d(10.0, 200.0), 0.5);
+  std::mt19937 rng(7);
+  for (const double wrong_px : {0.0, 15.0}) {
+    PoseObservation o;
+    o.p_world = T_world_cam * p_cam;
+    o.obs = observe(p_cam, 0, true, 0.0, rng);
+    ASSERT_LT(*o.obs.u_right, -60.0);  // 10 - 40 / 0.5
+    *o.obs.u_right += wrong_px;
+    scene.observations.push_back(o);
+  }
+  const PoseResult r = optimize_pose(test_camera(), kBf, scene.observations, perturbed(scene.T_cam_world), {});
+  ASSERT_TRUE(r.ok);
+  EXPECT_FALSE(r.outlier[r.outlier.size() - 2]);  // agrees with the depth
+  EXPECT_TRUE(r.outlier.back());                   // 15 px off on the right image only
+  EXPECT_EQ(r.inliers, options.points + 1);
+  EXPECT_LT(translation_error_m(r.T_cam_world, scene.T_cam_world), 1e-6);
 }
 
 TEST(OptimizePose, AccuracyWithOnePixelNoiseMatchesTheCramerRaoBound) {
@@ -214,12 +240,12 @@ TEST(OptimizePose, FlagsInjectedOutliersAndStillRecoversThePose) {
 double huber_cost(const PoseScene& scene, const Eigen::Isometry3d& T_cam_world, const OptimizerConfig& config) {
   double cost = 0.0;
   for (const PoseObservation& o : scene.observations) {
-    const bool stereo = o.obs.u_right >= 0.0;
+    const bool stereo = o.obs.u_right.has_value();
     const Eigen::Vector3d p_cam = T_cam_world * o.p_world;
     if (p_cam.z() <= 0.0) continue;
     const Eigen::Vector2d uv = *test_camera().project(p_cam);
     double s = (o.obs.uv - uv).squaredNorm();
-    if (stereo) s += std::pow(o.obs.u_right - (uv.x() - kBf / p_cam.z()), 2);
+    if (stereo) s += std::pow(*o.obs.u_right - (uv.x() - kBf / p_cam.z()), 2);
     s *= o.obs.inv_sigma2;
     const double delta2 = stereo ? config.chi2_stereo : config.chi2_mono;
     cost += s <= delta2 ? s : 2.0 * std::sqrt(delta2 * s) - delta2;

@@ -236,7 +236,7 @@ struct Frame {
   core::PinholeCamera camera;  // distortion-free intrinsics the undistorted coordinates live in
   ScalePyramid pyramid;
   double bf = 0.0;             // baseline * fx (stereo: real; RGB-D: virtual); 0 monocular
-  double close_depth_m = 0.0;  // features nearer than this are "close" (ORB-SLAM ThDepth in metres)
+  double close_depth_m = 0.0;  // features nearer than this are "close" (ORB-SLAM ThDepth in metres); 0: all are
   ImageBounds bounds;          // where uv can lie (empty: finalize() uses camera's image area)
 
   // As detected in the image features were extracted from: the raw image, or the rectified left image
@@ -246,7 +246,9 @@ struct Frame {
   std::vector<int> level;               // pyramid level of each feature
   cv::Mat descriptors;                  // N x 32, CV_8UC1 (rBRIEF)
   std::vector<double> depth_m;          // depth along the optical axis; <= 0 when unknown
-  std::vector<double> u_right;          // right-image u (stereo, or virtual for RGB-D); < 0 when unknown
+  // Right-image u (stereo, or virtual for RGB-D: u - bf / depth), meaningful where has_right(i) and then
+  // possibly negative (a close point near the left edge); -1 elsewhere, but never test its sign.
+  std::vector<double> u_right;
   FeatureGrid grid;
 
   std::vector<MapPointId> map_points;   // per feature, kNoMapPoint when unmatched
@@ -256,10 +258,12 @@ struct Frame {
 
   std::size_t size() const { return uv.size(); }
   bool has_depth(std::size_t i) const { return depth_m[i] > 0.0; }
+  // Feature i has a (real or virtual) right coordinate: a depth and a baseline.
+  bool has_right(std::size_t i) const { return bf > 0.0 && has_depth(i); }
   // Camera-frame point of feature i from its depth and uv; nullopt without depth. i < size() (checked).
   std::optional<Eigen::Vector3d> unproject(std::size_t i) const;
-  // Makes the per-feature vectors consistent and builds the grid: depth_m / u_right left empty are
-  // filled with "unknown" (-1), map_points/outlier are reset to one unmatched inlier entry per feature,
+  // Makes the per-feature vectors consistent and builds the grid: depth_m left empty is filled with
+  // "unknown" (-1), u_right left empty with u - bf / depth where has_right(i) and -1 elsewhere, map_points/outlier are reset to one unmatched inlier entry per feature,
   // and the grid covers `bounds` (or the camera's image area when bounds is empty, or the features'
   // bounding box when the camera has no size). Throws InvariantError when keypoints, uv, level,
   // descriptors rows, depth_m or u_right disagree in size.

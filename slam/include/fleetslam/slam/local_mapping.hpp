@@ -12,7 +12,8 @@
 //   local BA          current keyframe + covisible neighbours optimised with their points; keyframes
 //                     outside that set observing those points are held fixed; outlier observations go;
 //   cull_keyframes    a neighbour whose (close) points are 90 % seen by >= 3 other keyframes at the same or
-//                     a finer scale is redundant and removed.
+//                     a finer scale is redundant and removed (never one newer than the current keyframe:
+//                     in threaded mode it still waits for its own pass).
 // Local BA splits into prepare (reads the map) / solve (no map) / apply (writes the map, skipping what
 // changed meanwhile), so the threaded mode can solve without holding the map lock.
 

@@ -38,7 +38,7 @@ struct ProjectionSearchConfig {
 struct ProjectedPoint {
   MapPointId id = kNoMapPoint;
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // undistorted pixel
-  double u_right = -1.0;                         // virtual right u (< 0 without a baseline)
+  std::optional<double> u_right;                 // (virtual) right u, may be negative; none without a baseline
   double depth_m = 0.0;
   int level = 0;                                 // predicted pyramid level
   double view_cos = 1.0;

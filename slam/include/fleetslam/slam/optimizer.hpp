@@ -11,6 +11,7 @@
 // adjustment has one block per observation with Ceres' HuberLoss. Single-threaded by default and free
 // of randomness: the same input gives the same bits.
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -23,7 +24,8 @@ namespace fleetslam::slam {
 
 struct Observation {
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // undistorted pixel
-  double u_right = -1.0;                         // < 0: monocular observation
+  // Right-image u (stereo, or virtual for RGB-D; may be negative): three residuals. None: monocular, two.
+  std::optional<double> u_right;
   double inv_sigma2 = 1.0;                       // 1 / sigma^2 of the keypoint's level
 };
 
