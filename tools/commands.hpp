@@ -3,6 +3,7 @@
 // failures throw (fleetslam::InputError for bad input), and main prints one line and exits non-zero.
 
 #include <stdexcept>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
@@ -13,6 +14,18 @@ namespace fleetslam::tools {
 struct CriteriaFailed : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+// --format of a recorded sequence (replay, dataset, vocab): tum_rgbd, euroc or tumvi, with `tum` taken
+// for tum_rgbd, as `generate` and `eval` name it.
+inline CLI::Validator dataset_format_check() {
+  return CLI::Validator(
+      [](std::string& format) -> std::string {
+        if (format == "tum") format = "tum_rgbd";
+        if (format == "tum_rgbd" || format == "euroc" || format == "tumvi") return {};
+        return "'" + format + "' is no dataset layout: tum_rgbd (or tum), euroc or tumvi";
+      },
+      "{tum_rgbd,tum,euroc,tumvi}");
+}
 
 // Options shared by every command.
 struct GlobalOptions {

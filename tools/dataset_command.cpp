@@ -190,7 +190,7 @@ void run_convert(const DatasetOptions& options, const GlobalOptions& global) {
 void add_source_options(CLI::App& command, DatasetOptions& options) {
   command.add_option("path", options.path, "Sequence folder")->required();
   command.add_option("--format", options.format, "Layout (detected when not given)")
-      ->check(CLI::IsMember({"tum_rgbd", "euroc", "tumvi"}));
+      ->transform(dataset_format_check());
   command.add_option("--groundtruth", options.groundtruth,
                      "Ground-truth file of camera poses (TUM, EuRoC csv or KITTI) instead of the dataset's own");
   command.add_option("--calibration", options.calibration,

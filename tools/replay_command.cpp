@@ -449,7 +449,7 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
                 "decisions, effective config and (with ground truth) the ATE to --out");
   cmd->add_option("dataset", options->dataset, "Sequence folder (TUM RGB-D, EuRoC or TUM-VI layout)")->required();
   cmd->add_option("--format", options->format, "Dataset layout (default: detected)")
-      ->check(CLI::IsMember({"tum_rgbd", "euroc", "tumvi"}));
+      ->transform(dataset_format_check());
   cmd->add_option("--sensor", options->sensor, "Sensors to use (default: the rig's mode)")
       ->check(CLI::IsMember({"rgbd", "stereo"}));
   cmd->add_option("--config", options->config, "Agent config YAML (see config.yaml of any run for every key)");

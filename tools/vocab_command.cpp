@@ -226,7 +226,7 @@ void add_vocab_command(CLI::App& app, const GlobalOptions& global) {
   train->add_option("--images", options->image_folders, "Folders of png/jpg images (not recursive)");
   train->add_option("--dataset", options->datasets, "Recorded sequences (TUM RGB-D, EuRoC, TUM-VI): their cam0 images");
   train->add_option("--format", options->format, "Layout of the --dataset sequences (detected when not given)")
-      ->check(CLI::IsMember({"tum_rgbd", "euroc", "tumvi"}));
+      ->transform(dataset_format_check());
   train->add_option("--out", options->out, "Vocabulary file to write (fleetslam binary format)")->required();
   train->add_option("--k", options->k, "Branching factor")->capture_default_str();
   train->add_option("--levels", options->levels, "Depth levels L")->capture_default_str();

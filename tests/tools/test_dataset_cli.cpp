@@ -86,6 +86,10 @@ TEST_F(DatasetCli, InfoOnTumRgbd) {
   EXPECT_EQ(j["rig"]["mode"], "rgbd");
   EXPECT_DOUBLE_EQ(j["rig"]["cam0"]["fx"].get<double>(), 517.3);
   EXPECT_TRUE(j["accelerometer_only"].get<bool>());
+  // The layout named as generate and eval name it, or in full.
+  for (const char* format : {"tum", "tum_rgbd"}) {
+    EXPECT_EQ(info_json(quoted(kTum) + " --format " + format)["format"], "tum_rgbd") << format;
+  }
   const Result text = run("dataset info " + quoted(kTum));
   EXPECT_EQ(text.exit_code, 0);
   EXPECT_NE(text.out.find("frames:       200"), std::string::npos) << text.out;
@@ -191,6 +195,8 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
 
   result = run("dataset info " + quoted(kEuroc) + " --format kitti");
   EXPECT_NE(result.exit_code, 0);
+  EXPECT_NE(result.err.find("kitti"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("tum_rgbd"), std::string::npos) << result.err;  // the names it takes
   result = run("dataset info " + quoted(kEuroc) + " --groundtruth " + quoted(dir_ / "gt.txt"));
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("gt.txt: missing ground-truth file"), std::string::npos) << result.err;
