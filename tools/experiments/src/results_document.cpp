@@ -98,7 +98,9 @@ const MatchingRow* find_row(const MatchingResult& r, const std::string& sequence
 std::string matching_section(const MatchingResult& r) {
   std::string s = "## Table 1: matching time and quality\n\n"
                   "Adjacent frame pairs (`--pairs`), each matched " + std::to_string(r.config.repetitions) +
-                  " times per matcher (single-threaded); time is the median over every call. A match is correct "
+                  " times per matcher (single-threaded); time is the median over every call. The grid and "
+                  "cross-validation matchers are timed interleaved, in turns that alternate which goes first, so "
+                  "that their ratio does not follow the machine's slow spells. A match is correct "
                   "when its feature's depth point, moved by the ground-truth relative pose, lands within " +
                   fixed(r.config.correct_px, 0) + " px of its partner; recall = correct matches / B features with "
                   "a true partner within that radius. The grid and cross-validation matchers get the "
