@@ -24,14 +24,27 @@ std::string fixed(double value, int decimals = 3) {
   return buffer;
 }
 
-// Hard gates: too few inliers never make a keyframe; weak tracking forces one. Applied after the policy.
+// Frames after a relocalisation without keyframes (-1: none).
+int relocalization_hold(const KeyframePolicyConfig& config, const KeyframeContext& context) {
+  if (config.relocalization_hold_frames != 0) return config.relocalization_hold_frames;
+  return std::max(1, static_cast<int>(std::lround(context.fps)));
+}
+
+// Hard gates: too few inliers never make a keyframe, nor does a frame just after a relocalisation in a
+// map of more keyframes than the hold; weak tracking forces one. Applied after the policy.
 KeyframeDecision apply_gates(const KeyframePolicyConfig& config, const KeyframeContext& context,
                              KeyframeDecision decision) {
   const int tracked = context.tracked_inliers;
+  const int hold = relocalization_hold(config, context);
   if (tracked < config.min_inliers) {
     decision.insert = false;
     decision.reason = "gate: " + std::to_string(tracked) + " inliers < min_inliers " +
                       std::to_string(config.min_inliers) + " (policy: " + decision.reason + ")";
+  } else if (context.frames_since_relocalization >= 0 && context.frames_since_relocalization < hold &&
+             context.keyframes_in_map > hold) {
+    decision.insert = false;
+    decision.reason = "gate: " + std::to_string(context.frames_since_relocalization) +
+                      " frame(s) after a relocalisation < " + std::to_string(hold) + " (policy: " + decision.reason + ")";
   } else if (tracked < config.weak_tracking_inliers) {
     decision.insert = true;
     decision.reason = "gate: weak tracking, " + std::to_string(tracked) + " inliers < " +

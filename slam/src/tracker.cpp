@@ -125,6 +125,9 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   if (result.relocalized) {
     last_frame_.reset();  // no velocity across the gap
     velocity_.reset();
+    frames_since_relocalization_ = 0;
+  } else if (frames_since_relocalization_ >= 0) {
+    ++frames_since_relocalization_;
   }
   state_ = TrackingState::kOk;
   lost_frames_ = 0;
@@ -175,6 +178,7 @@ TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
   ++component_;
   lost_frames_ = 0;
   relocalization_failing_since_ns_.reset();
+  frames_since_relocalization_ = -1;
   frame.T_world_cam = last_T_world_cam_.value_or(inputs.initial_T_world_cam);
   state_ = TrackingState::kOk;
   velocity_.reset();

@@ -162,6 +162,7 @@ void Tracker::decide_keyframe(Working& w, const Map& map, const TrackingInputs& 
   c.t_ns = f.t_ns;
   c.last_keyframe_t_ns = last_keyframe_t_ns_;
   c.frames_since_last_keyframe = frames_since_keyframe_;
+  c.frames_since_relocalization = frames_since_relocalization_;
   for (const auto& entry : map.keyframes()) c.keyframes_in_map += entry.second.component == component_ ? 1 : 0;
   c.tracked_inliers = result.inliers;
 

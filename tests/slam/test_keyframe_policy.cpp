@@ -216,6 +216,41 @@ TEST_P(Gates, WeakTrackingForcesAKeyframe) {
   EXPECT_FALSE(policy->decide(c).insert);
 }
 
+// ORB-SLAM3: no keyframe on the first fps frames after a relocalisation once the map holds more
+// keyframes than that; the relocalised frame itself is frame 0. Weak tracking does not override it.
+TEST_P(Gates, NoKeyframeJustAfterARelocalisationInABigMap) {
+  const auto policy = make_keyframe_policy(config_of(GetParam()));
+  KeyframeContext c = still_context(500);  // every policy wants one by now
+  c.translation_since_reference_m = 5.0;
+  c.tracked_reference_points = 10;
+  c.tracked_inliers = 40;  // weak, but above min_inliers
+  c.keyframes_in_map = 31;
+  for (int frames = 0; frames < 30; ++frames) {
+    c.frames_since_relocalization = frames;
+    const KeyframeDecision d = policy->decide(c);
+    EXPECT_FALSE(d.insert) << frames << ": " << d.reason;
+    EXPECT_NE(d.reason.find("after a relocalisation"), std::string::npos) << d.reason;
+  }
+  c.frames_since_relocalization = 30;
+  EXPECT_TRUE(policy->decide(c).insert);
+  c.frames_since_relocalization = -1;  // never relocalised
+  EXPECT_TRUE(policy->decide(c).insert);
+  c.frames_since_relocalization = 0;
+  c.keyframes_in_map = 30;  // a small map takes keyframes at once
+  EXPECT_TRUE(policy->decide(c).insert);
+
+  KeyframePolicyConfig config = config_of(GetParam());
+  config.relocalization_hold_frames = 5;
+  c.keyframes_in_map = 6;
+  c.frames_since_relocalization = 4;
+  EXPECT_FALSE(make_keyframe_policy(config)->decide(c).insert);
+  c.frames_since_relocalization = 5;
+  EXPECT_TRUE(make_keyframe_policy(config)->decide(c).insert);
+  config.relocalization_hold_frames = -1;  // off
+  c.frames_since_relocalization = 0;
+  EXPECT_TRUE(make_keyframe_policy(config)->decide(c).insert);
+}
+
 TEST_P(Gates, WeakTrackingGateCanBeSwitchedOff) {
   KeyframePolicyConfig config = config_of(GetParam());
   config.weak_tracking_inliers = 0;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -72,6 +73,29 @@ TEST(Relocalization, RecoversWithinOneSecondAfterATwoSecondBlackout) {
   agent.finish();
   const core::Trajectory trajectory = agent.trajectory();
   EXPECT_GE(static_cast<int>(trajectory.size()), kBefore + kAfter - 30);
+}
+
+// The relocalised pose rests on few inliers: no keyframe on it nor on the next frames while the map holds
+// more keyframes than the hold (ORB-SLAM3's rule; here a hold of 3 frames, the default being fps).
+TEST(Relocalization, NoKeyframeOnTheFirstFramesAfterIt) {
+  AgentConfig config;
+  config.keyframes.relocalization_hold_frames = 3;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  std::optional<std::int64_t> relocalized_at;
+  std::size_t keyframes_before = 0;
+  for (const core::SensorFrame& f : blackout_sequence()) {
+    const AgentUpdate u = agent.process(f);
+    if (f.sequence == kBefore - 1) keyframes_before = agent.map_stats().keyframes;
+    if (u.relocalized) relocalized_at = f.sequence;
+    if (!relocalized_at || f.sequence >= *relocalized_at + 3) continue;
+    EXPECT_TRUE(u.new_keyframes.empty()) << "frame " << f.sequence;
+    ASSERT_TRUE(u.keyframe_decision.has_value()) << "frame " << f.sequence;
+    EXPECT_FALSE(u.keyframe_decision->insert);
+    EXPECT_NE(u.keyframe_decision->reason.find("after a relocalisation"), std::string::npos)
+        << u.keyframe_decision->reason;
+  }
+  ASSERT_TRUE(relocalized_at.has_value());
+  EXPECT_GT(keyframes_before, 3u);  // the gate applies to a map larger than the hold
 }
 
 // A "kidnap": after 2 s tracked and 0.2 s black, the camera shows the place it started from (0.5 m and

@@ -19,8 +19,11 @@
 //    Local mapping's state does not enter (the paper's rule has no such term).
 //  - fixed_interval: a keyframe when frames_since_last_keyframe >= interval_frames (baseline).
 // Hard gates shared by all, applied after the policy: no keyframe with fewer than min_inliers tracked points;
-// a keyframe is forced when tracking gets weak (tracked points below weak_tracking_inliers) and enough
-// inliers remain (weak_tracking_inliers 0 switches that gate off).
+// none on the first relocalization_hold_frames frames after a relocalisation (0: fps; -1: off) while the
+// component holds more keyframes than that (ORB-SLAM3's rule: a relocalised pose rests on few inliers,
+// and a keyframe there would build new points on it); a keyframe is forced when tracking gets weak
+// (tracked points below weak_tracking_inliers) and enough inliers remain (weak_tracking_inliers 0
+// switches that gate off).
 // Every decision carries its factors so a run can show why a keyframe was (not) taken:
 //  exponential: T_I R_A T_R R_O, term_T_I term_R_A term_T_R term_R_O, T_H, Q
 //  orbslam3:    tracked, reference, ratio, c1a c1b c1c c2 need_close (0/1)
@@ -40,6 +43,7 @@ struct KeyframeContext {
   core::TimeNs t_ns = 0;
   core::TimeNs last_keyframe_t_ns = 0;
   int frames_since_last_keyframe = 0;
+  int frames_since_relocalization = -1;  // 0 on the relocalised frame itself; -1: no relocalisation yet
   int keyframes_in_map = 0;
   int tracked_inliers = 0;              // map points tracked in the current frame (after pose optimisation)
   int reference_points = 0;             // map points of the reference keyframe (with >= min observations)
@@ -69,6 +73,7 @@ struct KeyframePolicyConfig {
   // Shared gates.
   int min_inliers = 15;
   int weak_tracking_inliers = 50;
+  int relocalization_hold_frames = 0;    // 0: fps; -1: no hold
   // orbslam3
   double orbslam_ratio_rgbd = 0.75;      // thRefRatio for RGB-D/stereo (0.9 monocular)
   double orbslam_ratio_mono = 0.9;
@@ -96,6 +101,7 @@ struct KeyframePolicyConfig {
               {"fixed_interval", KeyframePolicyKind::kFixedInterval}});
     v("min_inliers", min_inliers, core::Limits<int>{0, 10000});
     v("weak_tracking_inliers", weak_tracking_inliers, core::Limits<int>{0, 10000});
+    v("relocalization_hold_frames", relocalization_hold_frames, core::Limits<int>{-1, 100000});
     v("orbslam_ratio_rgbd", orbslam_ratio_rgbd, core::Limits<double>{0.0, 1.0});
     v("orbslam_ratio_mono", orbslam_ratio_mono, core::Limits<double>{0.0, 1.0});
     v("orbslam_max_frames", orbslam_max_frames, core::Limits<int>{0, 100000});

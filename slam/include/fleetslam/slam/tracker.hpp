@@ -257,6 +257,7 @@ class Tracker {
   KeyframeId reference_keyframe_ = -1;
   core::TimeNs last_keyframe_t_ns_ = 0;
   int frames_since_keyframe_ = 0;
+  int frames_since_relocalization_ = -1;  // tracked frames since the last relocalisation; -1: none
 };
 
 }  // namespace fleetslam::slam
