@@ -31,9 +31,10 @@ int relocalization_hold(const KeyframePolicyConfig& config, const KeyframeContex
 }
 
 // Hard gates: too few inliers never make a keyframe, nor does a frame just after a relocalisation in a
-// map of more keyframes than the hold; weak tracking forces one. Applied after the policy.
+// map of more keyframes than the hold; weak tracking forces one (force_when_weak: not for the orbslam3
+// policy, whose own c1c covers weak tracking). Applied after the policy.
 KeyframeDecision apply_gates(const KeyframePolicyConfig& config, const KeyframeContext& context,
-                             KeyframeDecision decision) {
+                             KeyframeDecision decision, bool force_when_weak = true) {
   const int tracked = context.tracked_inliers;
   const int hold = relocalization_hold(config, context);
   if (tracked < config.min_inliers) {
@@ -45,7 +46,7 @@ KeyframeDecision apply_gates(const KeyframePolicyConfig& config, const KeyframeC
     decision.insert = false;
     decision.reason = "gate: " + std::to_string(context.frames_since_relocalization) +
                       " frame(s) after a relocalisation < " + std::to_string(hold) + " (policy: " + decision.reason + ")";
-  } else if (tracked < config.weak_tracking_inliers) {
+  } else if (force_when_weak && tracked < config.weak_tracking_inliers) {
     decision.insert = true;
     decision.reason = "gate: weak tracking, " + std::to_string(tracked) + " inliers < " +
                       std::to_string(config.weak_tracking_inliers) + " (policy: " + decision.reason + ")";
@@ -124,7 +125,7 @@ class Orbslam3Policy final : public KeyframePolicy {
     const bool c1a = frames >= max_frames(context);
     const bool c1b = frames >= config_.orbslam_min_frames && context.local_mapping_idle;
     const bool c1c = context.has_depth && (tracked < config_.orbslam_weak_ratio * reference || need_close);
-    const bool c2 = tracked < ratio * reference || need_close;
+    const bool c2 = (tracked < ratio * reference || need_close) && tracked > config_.min_inliers;
 
     KeyframeDecision decision;
     decision.score = reference > 0.0 ? tracked / reference : 0.0;
@@ -132,7 +133,7 @@ class Orbslam3Policy final : public KeyframePolicy {
         {"tracked", tracked}, {"reference", reference},  {"ratio", ratio}, {"c1a", c1a}, {"c1b", c1b}, {"c1c", c1c},
         {"c2", c2},           {"need_close", need_close}};
     decide_insert(context, c1a || c1b || c1c, c2, decision);
-    return apply_gates(config_, context, std::move(decision));
+    return apply_gates(config_, context, std::move(decision), false);
   }
 
  private:

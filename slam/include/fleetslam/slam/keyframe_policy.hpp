@@ -5,7 +5,7 @@
 //      c1a  frames since the last keyframe >= max frames (orbslam_max_frames, 0: fps)
 //      c1b  frames since the last keyframe >= min frames and local mapping idle
 //      c1c  depth sensor and (tracked < orbslam_weak_ratio * reference or the close-point need)
-//      c2   tracked < ratio * reference, or the close-point need (the "> 15" is the min_inliers gate)
+//      c2   tracked < ratio * reference, or the close-point need; and tracked > min_inliers (ORB-SLAM3's > 15)
 //    close-point need: close_tracked < orbslam_close_tracked_max and close_untracked > orbslam_close_untracked_min
 //    (depth sensors only). ratio: orbslam_ratio_rgbd / _mono, orbslam_ratio_few_keyframes with < 2 keyframes.
 //    A keyframe when (c1a or c1b or c1c) and c2 and, when local mapping is busy, a depth sensor with fewer
@@ -23,7 +23,7 @@
 // component holds more keyframes than that (ORB-SLAM3's rule: a relocalised pose rests on few inliers,
 // and a keyframe there would build new points on it); a keyframe is forced when tracking gets weak
 // (tracked points below weak_tracking_inliers) and enough inliers remain (weak_tracking_inliers 0
-// switches that gate off).
+// switches that gate off), except under orbslam3, whose c1c is ORB-SLAM3's own answer to weak tracking.
 // Every decision carries its factors so a run can show why a keyframe was (not) taken:
 //  exponential: T_I R_A T_R R_O, term_T_I term_R_A term_T_R term_R_O, T_H, Q
 //  orbslam3:    tracked, reference, ratio, c1a c1b c1c c2 need_close (0/1)
