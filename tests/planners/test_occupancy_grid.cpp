@@ -134,7 +134,8 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
   std::vector<std::uint8_t> holds_obstacle(static_cast<std::size_t>(grid.width() * grid.height()), 0);
   for (const Eigen::Vector3f& p : walls.points) {
     const auto cell = grid.cell_of(p.head<2>().cast<double>());
-    if (cell && p.z() >= config.obstacle_min_height_m && p.z() <= top) holds_obstacle[grid.index(*cell)] = 1;
+    const double z = p.z();
+    if (cell && z >= config.obstacle_min_height_m && z <= top) holds_obstacle[grid.index(*cell)] = 1;
   }
   std::vector<std::uint8_t> oracle(static_cast<std::size_t>(grid.width() * grid.height()), 0);
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> carved_parts;
@@ -163,7 +164,9 @@ TEST(OccupancyGrid, RaysCarveTheFreeSpaceTheyCross) {
       const CellIndex cell{x, y};
       const Eigen::Vector2d lo = grid.origin_world() + res * Eigen::Vector2d(x, y);
       if (grid.state(cell) == CellState::kOccupied) continue;
-      if (oracle[grid.index(cell)]) EXPECT_EQ(grid.state(cell), CellState::kFree) << "crossed: " << x << ", " << y;
+      if (oracle[grid.index(cell)]) {
+        EXPECT_EQ(grid.state(cell), CellState::kFree) << "crossed: " << x << ", " << y;
+      }
       if (grid.state(cell) == CellState::kFree) {
         const bool meets = std::any_of(carved_parts.begin(), carved_parts.end(),
                                        [&](const auto& s) { return segment_meets_cell(s.first, s.second, lo, res); });

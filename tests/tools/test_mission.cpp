@@ -243,8 +243,9 @@ TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
   EXPECT_LT(goal.x(), 2.97 - 0.4) << "in the west room, clear of the jambs: " << goal.transpose();
   EXPECT_GT(goal.x(), 1.5) << "in front of the doorway: " << goal.transpose();
   EXPECT_NEAR(goal.y(), 2.0, 0.5) << goal.transpose();
-  ASSERT_NE(command_for(commands, 0), nullptr);
-  EXPECT_FALSE(command_for(commands, 0)->path_world.empty());
+  const PathCommand* command = command_for(commands, 0);
+  ASSERT_NE(command, nullptr);
+  EXPECT_FALSE(command->path_world.empty());
   ASSERT_FALSE(mission.reports()[0].events.empty());
   EXPECT_NE(mission.reports()[0].events.back().find("viewpoint"), std::string::npos) << mission.reports()[0].events.back();
   // On its way (the strip's frontier still there, though far from the goal): the goal stays.
@@ -304,9 +305,10 @@ TEST(MissionPlanner, ARobotThatReachesItsGoalFacingAwayTurnsToItsFrontier) {
   ASSERT_EQ(events.size(), 3u) << events.back();
   EXPECT_NE(events[1].find("reached"), std::string::npos) << events[1];
   EXPECT_NE(events[2].find("turns to look at the frontier"), std::string::npos) << events[2];
-  ASSERT_NE(command_for(commands, 0), nullptr);
-  ASSERT_EQ(command_for(commands, 0)->path_world.size(), 1u) << "the turn, not a plan to another goal";
-  EXPECT_GT(command_for(commands, 0)->path_world[0].x(), goal.x());
+  const PathCommand* turn = command_for(commands, 0);
+  ASSERT_NE(turn, nullptr);
+  ASSERT_EQ(turn->path_world.size(), 1u) << "the turn, not a plan to another goal";
+  EXPECT_GT(turn->path_world[0].x(), goal.x());
   // Busy while it turns: no goal, no command.
   EXPECT_EQ(command_for(mission.update(5.0, seen, {at(goal.x(), goal.y(), M_PI / 2.0, false)}), 0), nullptr);
   EXPECT_FALSE(mission.goal_of(0).has_value());
@@ -336,8 +338,9 @@ TEST(MissionPlanner, WithViewpointsAFrontierCutOffFromTheRobotIsLookedAt) {
     const std::string prefix = "turns to look at the frontier at (";
     ASSERT_NE(event.find(prefix), std::string::npos) << event;
     EXPECT_GT(std::stod(event.substr(event.find(prefix) + prefix.size())), 4.2) << "a frontier of the patch: " << event;
-    ASSERT_NE(command_for(commands, 0), nullptr);
-    EXPECT_GT(command_for(commands, 0)->path_world.at(0).x(), 2.3) << "a step east, towards the patch";
+    const PathCommand* step = command_for(commands, 0);
+    ASSERT_NE(step, nullptr);
+    EXPECT_GT(step->path_world.at(0).x(), 2.3) << "a step east, towards the patch";
   }
 }
 
@@ -371,8 +374,9 @@ TEST(MissionPlanner, BoxedInRobotIsReportedAndItsGoalGivenUp) {
   for (int i = 0; i < m.max_plan_failures; ++i) {
     const std::vector<PathCommand> commands = mission.update(0.5 + i, map, {at(1.0, 1.0, 0.0, true), at(2.0, 3.0)});
     if (i == 0) {
-      ASSERT_NE(command_for(commands, 1), nullptr);
-      EXPECT_FALSE(command_for(commands, 1)->path_world.empty()) << "b plans as usual";
+      const PathCommand* b = command_for(commands, 1);
+      ASSERT_NE(b, nullptr);
+      EXPECT_FALSE(b->path_world.empty()) << "b plans as usual";
     }
   }
   EXPECT_EQ(mission.reports()[0].goals_given_up, 1);
