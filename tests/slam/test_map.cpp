@@ -4,12 +4,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/slam/local_mapping.hpp"
 #include "fleetslam/slam/map.hpp"
+#include "fleetslam/slam/map_projection.hpp"
 #include "map_test_util.hpp"
 
 namespace fleetslam::slam {
@@ -361,6 +363,46 @@ TEST(LocalMapping, TriangulatesAPointNearButNotAtTheEpipole) {
   EXPECT_LT((p->position - p_world).norm(), 1e-6);
   EXPECT_EQ(p->observations.count(k0), 1u);
   expect_consistent(map);
+}
+
+// A close point near the left edge has a negative (virtual) right coordinate, and depth must still agree:
+// of two features where it projects, the one whose depth disagrees loses to the one whose depth agrees,
+// though its descriptor is closer. finalize() derives the right coordinates from depth.
+TEST(ProjectionSearch, DepthMustAgreeForAPointWithANegativeRightCoordinate) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = at_x(0.0);
+  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
+  const MapPointId id = map.keyframe(k0)->frame.map_points[0];
+  const MapPoint& point = *map.point(id);
+
+  Frame f;
+  f.camera = first.camera;
+  f.pyramid = first.pyramid;
+  f.bf = 40.0;
+  const Eigen::Vector2d uv(10.0, 200.0);
+  f.descriptors = cv::Mat(2, 32, CV_8UC1);
+  for (int i = 0; i < 2; ++i) {
+    f.keypoints.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()), 31.0f, 0.0f, 0.0f, 0);
+    f.uv.push_back(uv);
+    f.level.push_back(0);
+    std::copy(point.descriptor.begin(), point.descriptor.end(), f.descriptors.ptr<std::uint8_t>(i));
+  }
+  f.descriptors.at<std::uint8_t>(1, 0) ^= 0x3;  // feature 1: two bits off
+  f.depth_m = {2.0, 0.5};                      // feature 0 is 1.5 m behind the point
+  f.finalize();
+  ASSERT_DOUBLE_EQ(f.u_right[1], 10.0 - 40.0 / 0.5);
+
+  ProjectedPoint p;
+  p.id = id;
+  p.uv = uv;
+  p.depth_m = 0.5;
+  p.u_right = uv.x() - f.bf / p.depth_m;  // -70 px
+  p.level = 0;
+  EXPECT_EQ(search_by_projection(f, {p}, map, ProjectionSearchConfig{}), 1);
+  EXPECT_EQ(f.map_points[0], kNoMapPoint);
+  EXPECT_EQ(f.map_points[1], id);
 }
 
 }  // namespace
