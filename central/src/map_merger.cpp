@@ -258,8 +258,9 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   const bool use_local = local.rounds > 0 && local.consistency >= wide.consistency;
   const detail::Refinement& chosen = use_local ? local : wide;
   // A correction that does not fit the cloud clearly better than the prior leaves the prior (the overlap
-  // confirmed it).
-  const bool keep_prior = !(chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
+  // confirmed it), as does one that fits almost none of it (the overlap was no common surface).
+  const bool keep_prior = !(chosen.consistency >= config_.min_consistency &&
+                            chosen.consistency > at_prior * (1.0 + config_.min_consistency_gain));
   const char* applied = keep_prior ? "prior" : use_local ? "local" : "wide";
   if (chosen.rounds > 0) {
     logger_->info("merge: robot {}: {} hypothesis applied (consistency within {:.0f} mm: prior {:.4f}, wide {:.4f}, "

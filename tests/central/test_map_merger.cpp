@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -222,6 +223,24 @@ TEST(MapMerger, AnExactPriorThatNothingFitsBetterStays) {
   EXPECT_EQ(moved.hypothesis, "wide");
   EXPECT_GT(moved.refinement_rounds, 0);
   EXPECT_FALSE(moved.T_world_robot.isApprox(Eigen::Isometry3d::Identity(), 0.0));
+}
+
+// A correction must put at least min_consistency of the cloud on the merged map, whatever the prior's
+// share: the wide result that fixes a 10 cm + 5 degree prior (consistency well above the default 0.005)
+// is refused when the bar is set above it, and the prior stays.
+TEST(MapMerger, ACorrectionThatFitsTooLittleOfTheCloudLeavesThePrior) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                          robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
+  const RobotMergeReport applied = MapMerger(MapMergerConfig{}).merge(robots).robots[1];
+  ASSERT_EQ(applied.hypothesis, "wide");
+  ASSERT_GT(applied.consistency_wide, 0.05);
+  MapMergerConfig strict;
+  strict.min_consistency = std::min(1.0, 1.01 * std::max(applied.consistency_wide, applied.consistency_local));
+  const RobotMergeReport kept = MapMerger(strict).merge(robots).robots[1];
+  EXPECT_EQ(kept.hypothesis, "prior");
+  EXPECT_TRUE(kept.T_world_robot.isApprox(kept.T_world_robot_prior));
+  EXPECT_DOUBLE_EQ(kept.consistency_wide, applied.consistency_wide);  // scored alike, only the bar moved
 }
 
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {
