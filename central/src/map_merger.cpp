@@ -78,6 +78,13 @@ std::string describe(double shift_m, double angle_deg) { return fmt::format("{:.
 
 std::string describe(const Eigen::Isometry3d& T) { return describe(T.translation().norm(), rotation_deg(T)); }
 
+// Why a robot was placed by its prior or left out without matching: what its last overlap was.
+std::string without_overlap(const RobotMergeReport& report) {
+  const std::string pairs = std::to_string(report.overlap_points) + " pairs";
+  if (report.overlap_points == 0) return "no overlap";
+  return report.no_common_surface ? "no common surface on " + pairs : "overlap too small (" + pairs + ")";
+}
+
 }  // namespace
 
 MapMerger::MapMerger(const Config& config, core::Logger logger)
@@ -219,8 +226,9 @@ detail::Refinement MapMerger::refine(const std::vector<detail::Round>& rounds, c
 }
 
 // Fine matching (see the header): the wide and the local hypothesis, the more consistent one applied unless
-// the prior is about as consistent. When neither has a usable first round, the prior stands.
-void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
+// the prior is about as consistent. When neither has a usable first round, the prior stands. False (no
+// common surface) when neither the prior nor a hypothesis fits min_consistency of the cloud.
+bool MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                            core::PointCloud& cloud_world, MergeTimings& timings) const {
   // The cloud's centroid where the prior puts it (fine matching starts from the prior).
   Eigen::Vector3d centroid_prior = Eigen::Vector3d::Zero();
@@ -234,7 +242,7 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   detail::Refinement wide = refine(wide_rounds, "wide", report.robot_id, coarse, merged, cloud_world, centroid_prior, timings);
   if (!config_.local_hypothesis) {  // the paper's fine matching, unweighed
     apply(wide, "wide", /*move=*/true, report, cloud_world);
-    return;
+    return true;
   }
   detail::Refinement local = refine({{&local_registration_, false}}, "local", report.robot_id, coarse, merged,
                                     cloud_world, centroid_prior, timings);
@@ -257,6 +265,14 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
   // Ties go to the local hypothesis: the prior, polished.
   const bool use_local = local.rounds > 0 && local.consistency >= wide.consistency;
   const detail::Refinement& chosen = use_local ? local : wide;
+  report.no_common_surface = chosen.rounds > 0 && std::max(chosen.consistency, at_prior) < config_.min_consistency;
+  if (report.no_common_surface) {
+    report.registration = chosen.registration;
+    logger_->warn("merge: robot {}: {} coarse pairs but no common surface (consistency prior {:.4f}, wide {:.4f}, "
+                  "local {:.4f}, below {:.4f}): as without overlap",
+                  report.robot_id, coarse.size(), at_prior, wide.consistency, local.consistency, config_.min_consistency);
+    return false;
+  }
   // A correction that does not fit the cloud clearly better than the prior leaves the prior (the overlap
   // confirmed it), as does one that fits almost none of it (the overlap was no common surface).
   const bool keep_prior = !(chosen.consistency >= config_.min_consistency &&
@@ -269,6 +285,7 @@ void MapMerger::fine_match(RobotMergeReport& report, const Overlap& coarse, cons
                   local.consistency, keep_prior ? describe(Eigen::Isometry3d::Identity()) : describe(chosen.correction));
   }
   apply(chosen, applied, !keep_prior, report, cloud_world);  // with no usable round, chosen is wide
+  return true;
 }
 
 // The outcome of fine matching: a hypothesis without a usable first round leaves the prior (status
@@ -330,6 +347,7 @@ bool MapMerger::match(std::size_t i, const std::vector<RobotCloud>& robots, cons
   const Overlap overlap = overlap_.find(merged.cloud, cloud_world);
   result.timings.coarse_ms += ms_since(stage);
   report.overlap_points = overlap.size();
+  report.no_common_surface = false;  // until fine matching finds so
   report.overlap_mean_distance_m = overlap.mean_distance_m;
   report.overlap_normal_rejected = overlap.normal_rejected;
   report.overlap_with = pairs_per_robot(overlap, merged, robots);
@@ -338,7 +356,7 @@ bool MapMerger::match(std::size_t i, const std::vector<RobotCloud>& robots, cons
                 report.robot_id, overlap.size(), overlap.mean_distance_m, overlap.normal_rejected, merged.cloud.size());
   if (overlap.size() < static_cast<std::size_t>(config_.min_overlap_points)) return false;
   if (config_.registration.enabled) {
-    fine_match(report, overlap, merged.cloud, cloud_world, result.timings);
+    if (!fine_match(report, overlap, merged.cloud, cloud_world, result.timings)) return false;
   } else {
     report.status = "coarse only (registration disabled)";
   }
@@ -411,9 +429,7 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
         break;  // the rest are left out (below)
       }
       RobotMergeReport& report = result.robots[*first];
-      report.status = report.overlap_points == 0
-                          ? "no overlap: prior kept"
-                          : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): prior kept";
+      report.status = without_overlap(report) + ": prior kept";
       logger_->warn("merge: robot {}: {}", report.robot_id, report.status);
       place(*first, report.status);
       pending.erase(first);
@@ -421,9 +437,7 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
   }
   for (std::size_t i : pending) {
     RobotMergeReport& report = result.robots[i];
-    report.status = report.overlap_points == 0
-                        ? "no overlap: left out"
-                        : "overlap too small (" + std::to_string(report.overlap_points) + " pairs): left out";
+    report.status = without_overlap(report) + ": left out";
     logger_->info("merge: robot {}: {}", report.robot_id, report.status);
   }
   finish(std::move(merged.cloud), result);

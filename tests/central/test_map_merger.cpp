@@ -225,22 +225,32 @@ TEST(MapMerger, AnExactPriorThatNothingFitsBetterStays) {
   EXPECT_FALSE(moved.T_world_robot.isApprox(Eigen::Isometry3d::Identity(), 0.0));
 }
 
-// A correction must put at least min_consistency of the cloud on the merged map, whatever the prior's
-// share: the wide result that fixes a 10 cm + 5 degree prior (consistency well above the default 0.005)
-// is refused when the bar is set above it, and the prior stays.
-TEST(MapMerger, ACorrectionThatFitsTooLittleOfTheCloudLeavesThePrior) {
+// A fit must put at least min_consistency of the cloud on the merged map: with the bar above anything the
+// prior or a hypothesis reaches, the overlap's pairs count as no common surface, as if there were no
+// overlap: the robot keeps its prior without being fine matched, or is left out when it must overlap.
+TEST(MapMerger, PairsOnNoCommonSurfaceCountAsNoOverlap) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
-  const std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
-                                          robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                    robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error())};
   const RobotMergeReport applied = MapMerger(MapMergerConfig{}).merge(robots).robots[1];
   ASSERT_EQ(applied.hypothesis, "wide");
-  ASSERT_GT(applied.consistency_wide, 0.05);
+  ASSERT_GT(applied.consistency_wide, 0.05);  // far above the default bar of 0.005
   MapMergerConfig strict;
-  strict.min_consistency = std::min(1.0, 1.01 * std::max(applied.consistency_wide, applied.consistency_local));
+  strict.min_consistency = 1.0;
   const RobotMergeReport kept = MapMerger(strict).merge(robots).robots[1];
-  EXPECT_EQ(kept.hypothesis, "prior");
+  EXPECT_TRUE(kept.no_common_surface);
+  EXPECT_FALSE(kept.fine_matched);
+  EXPECT_TRUE(kept.placed);
+  EXPECT_EQ(kept.hypothesis, "");
+  EXPECT_EQ(kept.status, "no common surface on " + std::to_string(kept.overlap_points) + " pairs: prior kept");
   EXPECT_TRUE(kept.T_world_robot.isApprox(kept.T_world_robot_prior));
   EXPECT_DOUBLE_EQ(kept.consistency_wide, applied.consistency_wide);  // scored alike, only the bar moved
+
+  robots[1].keep_prior_without_overlap = false;
+  const RobotMergeReport left_out = MapMerger(strict).merge(robots).robots[1];
+  EXPECT_FALSE(left_out.placed);
+  EXPECT_NE(left_out.status.find("no common surface"), std::string::npos) << left_out.status;
+  EXPECT_NE(left_out.status.find("left out"), std::string::npos) << left_out.status;
 }
 
 TEST(MapMerger, ARobotThatOverlapsOnlyALaterOneWaitsForIt) {

@@ -23,11 +23,12 @@
 // The one that puts more of the robot's cloud within consistency_distance_m of a merged point (normals
 // agreeing within local_registration.max_normal_angle_deg) wins; the share is taken per surface
 // orientation and averaged, as the floor, most of an indoor overlap, stays consistent under a wrong yaw.
-// It is applied only when its share is at least min_consistency (absolute: a correction that puts almost
-// nothing of the cloud on the merged map is no evidence, however much the prior's share is smaller; seen
-// on the apartment, exact priors, 10 s: a wide round on 122 pairs of different surfaces 11 cm apart moved
-// a robot 25 cm with a share of 0.0009, the prior's lower still) and exceeds the prior's by more than
-// min_consistency_gain (relative):
+// When neither the prior nor either hypothesis puts min_consistency of the cloud on the merged map, the
+// pairs were no common surface and count as no overlap: the robot waits, then keeps its prior (or is left
+// out) with status "no common surface on N pairs: ..." (seen on the apartment, exact priors, 10 s: a wide
+// round on 122 pairs of different surfaces 11 cm apart moved a robot 25 cm with a share of 0.0009).
+// Otherwise a hypothesis is applied only when its share is at least min_consistency and exceeds the
+// prior's by more than min_consistency_gain (relative):
 // otherwise the overlap confirms the prior, which stays (hypothesis "prior"; a small overlap says too
 // little to move an exact prior: seen moving one 2.5 cm and 0.44 degrees on 1741 pairs). With
 // local_hypothesis false, the wide hypothesis applies as the paper's fine matching, unweighed.
@@ -134,6 +135,7 @@ struct RobotMergeReport {
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (the prior when not fine matched)
   bool placed = false;                 // in the merged cloud
   bool fine_matched = false;           // a GICP correction was applied
+  bool no_common_surface = false;      // the last overlap's pairs fit no surface (see above)
   // Coarse matching against the merged cloud at the robot's last attempt: mutual pairs in all, and per
   // robot already placed (robot id, pairs) -- the per-pair overlap sizes.
   std::size_t overlap_points = 0;
@@ -191,7 +193,8 @@ class MapMerger {
                                            std::vector<core::PointCloud>& clouds_world) const;
   bool match(std::size_t i, const std::vector<RobotCloud>& robots, const detail::MergedCloud& merged,
              core::PointCloud& cloud_world, MergeResult& result) const;
-  void fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
+  // False when the overlap is no common surface (the robot waits as without overlap).
+  bool fine_match(RobotMergeReport& report, const Overlap& coarse, const core::PointCloud& merged,
                   core::PointCloud& cloud_world, MergeTimings& timings) const;
   void apply(const detail::Refinement& chosen, const char* hypothesis, bool move, RobotMergeReport& report,
              core::PointCloud& cloud_world) const;
