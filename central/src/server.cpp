@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -215,12 +216,7 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
   if (u.status == slam::FrameStatus::kLost) ++robot.counters.lost;
   for (const slam::KeyframeSnapshot& kf : u.new_keyframes) take_keyframe(robot, kf);
   for (const slam::KeyframeSnapshot& kf : u.changed_keyframes) take_keyframe(robot, kf);
-  for (slam::KeyframeId id : u.removed_keyframes) {
-    auto kf = robot.keyframes.find(id);
-    if (kf == robot.keyframes.end()) continue;
-    robot.retired[id] = kf->second.T_robot_cam;
-    robot.keyframes.erase(kf);
-  }
+  for (slam::KeyframeId id : u.removed_keyframes) retire_keyframe(robot, id);
   const auto newest = robot.newest.find(u.component);
   if (u.T_world_cam && newest != robot.newest.end()) {
     const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, newest->second);
@@ -230,6 +226,41 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
     }
   }
   return IntegrateStatus::kAccepted;
+}
+
+// A culled keyframe's frames move to its heir, the surviving keyframe of its component nearest in time
+// (the older on ties), re-expressed at the current poses, so that later corrections of the map (local BA,
+// loop closing) move them as they move the agent's own estimate of them. Without an heir the frames keep
+// the removed keyframe's last pose.
+void Server::retire_keyframe(RobotState& robot, slam::KeyframeId id) {
+  const auto kf = robot.keyframes.find(id);
+  if (kf == robot.keyframes.end()) return;
+  const ServerKeyframe removed = std::move(kf->second);
+  robot.keyframes.erase(kf);
+  const ServerKeyframe* heir = nullptr;
+  slam::KeyframeId heir_id = -1;
+  for (const auto& [other_id, other] : robot.keyframes) {
+    if (other.component != removed.component) continue;
+    const auto gap = [&](const ServerKeyframe& k) { return std::abs(k.t_ns - removed.t_ns); };
+    if (heir == nullptr || gap(other) < gap(*heir)) heir = &other, heir_id = other_id;
+  }
+  if (heir == nullptr) {
+    robot.retired[id] = removed.T_robot_cam;
+    return;
+  }
+  const Eigen::Isometry3d T_heir_removed = heir->T_robot_cam.inverse() * removed.T_robot_cam;
+  for (FrameEntry& f : robot.frames) {
+    if (f.reference != id) continue;
+    f.reference = heir_id;
+    f.T_ref_cam = T_heir_removed * f.T_ref_cam;
+  }
+  // Frames to come refer to the component's newest keyframe still held.
+  if (const auto newest = robot.newest.find(removed.component); newest != robot.newest.end() && newest->second == id) {
+    newest->second = heir_id;
+    for (const auto& [other_id, other] : robot.keyframes) {
+      if (other.component == removed.component) newest->second = std::max(newest->second, other_id);
+    }
+  }
 }
 
 std::size_t Server::integrate_all(Link& link) {

@@ -208,12 +208,45 @@ TEST(Server, KeyframeCorrectionsAndRemovalMoveFramesAndClouds) {
   EXPECT_NEAR(frames[1].T_world_body.translation().x(), 0.15, 1e-9);
   const core::PointCloud cloud = server.robot_cloud(0);
   EXPECT_FALSE(cloud.empty());
-  // Removing the keyframe keeps the frames (at its last pose) and drops its cloud.
+  // Removing the only keyframe keeps the frames (at its last pose) and drops its cloud.
   slam::AgentUpdate u3 = update(0, 3, 4'000, pose({0.3, 0, 0}, 0.0));
   u3.removed_keyframes.push_back(0);
   server.integrate(u3);
   EXPECT_EQ(server.robot_trajectory(0).size(), 4u);
   EXPECT_TRUE(server.robot_cloud(0).empty());
+}
+
+// The frames of a culled keyframe move to its nearest surviving keyframe and follow that one's later
+// corrections (a loop closure moving the map), as the agent's own estimate of them does; so do the frames
+// that arrive after the cull.
+TEST(Server, FramesOfACulledKeyframeFollowItsHeir) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", Eigen::Isometry3d::Identity(), {}});
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  slam::AgentUpdate u0 = update(0, 0, 1'000, identity);
+  u0.new_keyframes.push_back(keyframe(0, 1'000, identity, identity, s.room, 0.0, 1.0));
+  server.integrate(u0);
+  slam::AgentUpdate u1 = update(0, 1, 2'000, pose({0.2, 0, 0}, 0.0));
+  u1.new_keyframes.push_back(keyframe(1, 2'000, identity, pose({0.2, 0, 0}, 0.0), s.room, 0.0, 1.0));
+  server.integrate(u1);
+  server.integrate(update(0, 2, 3'000, pose({0.3, 0, 0}, 0.0)));  // refers to keyframe 1
+  slam::AgentUpdate u3 = update(0, 3, 4'000, pose({0.4, 0, 0}, 0.0));
+  u3.removed_keyframes.push_back(1);  // culled: its frames go to keyframe 0
+  server.integrate(u3);
+  // A correction moves keyframe 0 by 10 cm in y: every frame moves with it.
+  slam::AgentUpdate u4 = update(0, 4, 5'000, pose({0.5, 0.1, 0}, 0.0));
+  slam::KeyframeSnapshot moved = keyframe(0, 1'000, identity, pose({0.0, 0.1, 0}, 0.0), s.room, 0.0, 1.0);
+  moved.dense_cam.reset();
+  u4.changed_keyframes.push_back(moved);
+  server.integrate(u4);
+  const core::Trajectory frames = server.robot_trajectory(0);
+  ASSERT_EQ(frames.size(), 5u);
+  const double expected_x[] = {0.0, 0.2, 0.3, 0.4, 0.5};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_NEAR(frames[i].T_world_body.translation().x(), expected_x[i], 1e-9) << i;
+    EXPECT_NEAR(frames[i].T_world_body.translation().y(), 0.1, 1e-9) << i;
+  }
 }
 
 TEST(Server, RobotThatNeverOverlapsKeepsItsPrior) {

@@ -209,7 +209,8 @@ class Server {
     std::int64_t last_sequence = -1;
     int component = -1;  // the map component the prior places (the first one seen)
     std::map<slam::KeyframeId, ServerKeyframe> keyframes;
-    std::map<slam::KeyframeId, Eigen::Isometry3d> retired;  // removed keyframes' last poses (frames may refer to them)
+    // Removed keyframes' last poses, for frames that had no heir to move to (see retire_keyframe).
+    std::map<slam::KeyframeId, Eigen::Isometry3d> retired;
     std::map<int, slam::KeyframeId> newest;  // per component
     std::vector<FrameEntry> frames;
   };
@@ -217,6 +218,7 @@ class Server {
   RobotState& state(int robot_id);
   const RobotState& state(int robot_id) const;
   void take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf);
+  void retire_keyframe(RobotState& robot, slam::KeyframeId id);
   std::optional<Eigen::Isometry3d> keyframe_pose(const RobotState& robot, slam::KeyframeId id) const;
   // The component's transform in the last merge (nullopt: no merge yet, or the component was not in it).
   std::optional<Eigen::Isometry3d> last_placement(int robot_id, int component) const;
