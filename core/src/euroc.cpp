@@ -107,15 +107,19 @@ SensorRig euroc_rig(const std::filesystem::path& mav0, const DatasetConfig& conf
 }
 
 // Ground truth: the caller's file (camera poses unless said otherwise), else the dataset's body poses.
+// Body poses become camera poses through the rig's T_body_cam0, else cam0/sensor.yaml's T_BS (a rig from
+// an ORB-SLAM settings file without IMU keys has none): never through an identity nobody gave.
 void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& mav0, DatasetFormat format,
                        const DatasetConfig& config, const Logger& logger) {
-  std::optional<Eigen::Isometry3d> T_body_cam0;
-  if (config.rig) {
-    T_body_cam0 = config.rig->T_body_cam0.value_or(Eigen::Isometry3d::Identity());
-  } else {
-    T_body_cam0 = read_euroc_camera_yaml(mav0 / "cam0" / "sensor.yaml").T_body_cam;
-  }
+  std::optional<Eigen::Isometry3d> T_body_cam0 = config.rig ? config.rig->T_body_cam0 : std::nullopt;
+  const std::filesystem::path cam0_yaml = mav0 / "cam0" / "sensor.yaml";
+  if (!T_body_cam0 && file_exists(cam0_yaml)) T_body_cam0 = read_euroc_T_BS(cam0_yaml);
   if (!config.groundtruth_file.empty()) {
+    if (config.groundtruth_in_body_frame && !T_body_cam0) {
+      throw InputError(config.groundtruth_file, "holds body poses (groundtruth_in_body_frame), but the body-to-camera "
+                                                "transform is unknown: the calibration has no T_body_cam0 (IMU.T_b_c1 "
+                                                "or Tbc) and there is no cam0/sensor.yaml with T_BS");
+    }
     attach_groundtruth(sequence, config.groundtruth_file,
                        config.groundtruth_in_body_frame ? T_body_cam0 : std::nullopt, config);
     return;
@@ -125,6 +129,13 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
   if (format == DatasetFormat::kTumVi) std::swap(candidates[0], candidates[1]);
   for (const std::filesystem::path& file : candidates) {
     if (!file_exists(file)) continue;
+    if (!T_body_cam0) {
+      logger->warn("{}: body poses left out, no ground truth: the body-to-camera transform is unknown (the "
+                   "calibration has no T_body_cam0, IMU.T_b_c1 or Tbc, and there is no cam0/sensor.yaml with T_BS); "
+                   "give one, or camera poses as the ground-truth file",
+                   file.string());
+      return;
+    }
     attach_groundtruth(sequence, file, T_body_cam0, config);
     return;
   }

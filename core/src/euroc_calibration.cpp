@@ -82,6 +82,8 @@ EurocCameraCalibration read_euroc_camera_yaml(const std::filesystem::path& path)
   return calibration;
 }
 
+Eigen::Isometry3d read_euroc_T_BS(const std::filesystem::path& path) { return read_T_BS(SettingsFile(path)); }
+
 EurocImuCalibration read_euroc_imu_yaml(const std::filesystem::path& path) {
   const SettingsFile file(path);
   EurocImuCalibration calibration;

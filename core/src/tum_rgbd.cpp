@@ -115,6 +115,11 @@ std::vector<FrameEntry> pair_rgb_depth(const std::vector<ImageRow>& rgb, const s
                                               std::to_string(config.max_association_difference_s) + " s"});
     logger->debug("{}: {}", info.skipped.back().where, info.skipped.back().why);
   }
+  if (entries.empty() && !rgb.empty()) {
+    throw InputError((info.root / "rgb.txt").string() + ", " + (info.root / "depth.txt").string(),
+                     "no RGB image has a depth image within " + std::to_string(config.max_association_difference_s) +
+                         " s (max_association_difference_s): nothing to read; are the lists of the same recording?");
+  }
   if (matches.size() < rgb.size()) {
     logger->info("{}: {} of {} RGB images have no depth image to pair with", info.root.string(),
                  rgb.size() - matches.size(), rgb.size());
@@ -197,8 +202,12 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
   const std::filesystem::path gt_file =
       config.groundtruth_file.empty() ? root / "groundtruth.txt" : std::filesystem::path(config.groundtruth_file);
   if (!config.groundtruth_file.empty() || std::filesystem::exists(gt_file, ec)) {
-    const bool body = config.groundtruth_in_body_frame && sequence.rig.T_body_cam0;
-    attach_groundtruth(sequence, gt_file, body ? sequence.rig.T_body_cam0 : std::nullopt, config);
+    if (config.groundtruth_in_body_frame && !sequence.rig.T_body_cam0) {
+      throw InputError(gt_file.string(), "holds body poses (groundtruth_in_body_frame), but the calibration has no "
+                                         "body-to-camera transform (T_body_cam0: IMU.T_b_c1 or Tbc)");
+    }
+    attach_groundtruth(sequence, gt_file, config.groundtruth_in_body_frame ? sequence.rig.T_body_cam0 : std::nullopt,
+                       config);
   }
   if (config.load_imu && std::filesystem::exists(root / "accelerometer.txt", ec)) {
     attach_accelerometer(sequence, root / "accelerometer.txt");

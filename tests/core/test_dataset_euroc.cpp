@@ -230,6 +230,46 @@ TEST(Euroc, GroundTruthFromAGivenFileOfCameraOrBodyPoses) {
   expect_input_error([&] { open(dir / "seq", config); }, {"absent.txt", "missing ground-truth file"});
 }
 
+// A rig from an ORB-SLAM settings file without IMU keys has no T_body_cam0: the dataset's body poses
+// become camera poses through cam0/sensor.yaml's T_BS, and without that file they are left out, never
+// taken for camera poses.
+TEST(Euroc, BodyPosesNeedABodyToCameraTransformWhenTheRigHasNone) {
+  TempDir dir;
+  const std::vector<SensorFrame> written = make_frames(21);
+  write_sequence(dir.path(), written);
+  DatasetConfig config;
+  config.rig = mono_rig();
+  config.rig->T_body_cam0.reset();
+  config.load_images = false;
+  auto source = open(dir.path(), config);
+  EXPECT_EQ(source->info().frames_with_groundtruth, written.size() - 1);
+  auto frames = read_all(*source);
+  ASSERT_EQ(frames.size(), written.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(frames[i].T_world_cam_gt.has_value(), written[i].T_world_cam_gt.has_value());
+    if (frames[i].T_world_cam_gt) {
+      EXPECT_TRUE(frames[i].T_world_cam_gt->isApprox(*written[i].T_world_cam_gt, 1e-10));
+    }
+  }
+
+  std::filesystem::remove(dir / "mav0" / "cam0" / "sensor.yaml");
+  source = open(dir.path(), config);
+  EXPECT_EQ(source->info().frames_with_groundtruth, 0u);
+  frames = read_all(*source);
+  ASSERT_EQ(frames.size(), written.size());
+  for (const SensorFrame& frame : frames) EXPECT_FALSE(frame.T_world_cam_gt.has_value());
+
+  // Asked to read a file of body poses, it cannot: an error naming the file.
+  config.groundtruth_file = (dir / "mav0" / "state_groundtruth_estimate0" / "data.csv").string();
+  config.groundtruth_in_body_frame = true;
+  expect_input_error([&] { open(dir.path(), config); },
+                     {"state_groundtruth_estimate0/data.csv", "body-to-camera transform is unknown"});
+  // Camera poses need no transform.
+  config.groundtruth_in_body_frame = false;
+  EXPECT_EQ(open(dir.path(), config)->info().frames_with_groundtruth, written.size() - 1);
+}
+
 TEST(Euroc, TumViLayoutNeedsAGivenRigForEquidistantCameras) {
   TempDir dir;
   const std::vector<SensorFrame> written = make_frames(8);

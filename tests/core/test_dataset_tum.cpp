@@ -162,6 +162,43 @@ TEST(TumRgbd, RgbWithoutDepthWithinLimitIsSkippedAndListed) {
   EXPECT_EQ(frames[5].imu.size(), 6u);
 }
 
+TEST(TumRgbd, ListsWithoutASinglePairAreAnError) {
+  TempDir dir;
+  write_sequence(dir.path(), make_frames(3));
+  // Every depth stamp half a second late: no RGB image pairs, which is not an empty sequence.
+  for (int i = 0; i < kFrames; ++i) {
+    test::replace_line(dir / "depth.txt", kHeaderLines + 1 + static_cast<std::size_t>(i),
+                       format_seconds(stamp(i) + 500000000, 6) + " depth/" + format_seconds(stamp(i), i == 3 ? 9 : 6) +
+                           ".png");
+  }
+  expect_input_error([&] { open(dir.path()); }, {"rgb.txt", "depth.txt", "no RGB image has a depth image", "0.02"});
+  DatasetConfig config;
+  config.max_association_difference_s = 0.6;
+  EXPECT_GT(open(dir.path(), config)->size(), 0u);  // a tolerance that reaches them pairs them again
+  // A tolerance of 0 would pair nothing (the limit is strict, as in associate.py).
+  expect_input_error(
+      [] { load_config<DatasetConfig>(ConfigReader::from_string("max_association_difference_s: 0\n", "run.yaml")); },
+      {"run.yaml", "max_association_difference_s"});
+}
+
+// Ground truth of body poses needs the calibration's body-to-camera transform.
+TEST(TumRgbd, BodyFrameGroundTruthWithoutABodyToCameraTransformIsAnError) {
+  TempDir dir;
+  const std::vector<SensorFrame> written = make_frames(4);
+  write_sequence(dir.path(), written);
+  DatasetConfig config;
+  config.groundtruth_in_body_frame = true;
+  config.load_images = false;
+  expect_input_error([&] { open(dir.path(), config); }, {"groundtruth.txt", "body-to-camera"});
+  SensorRig rig = small_rig();
+  std::mt19937 rng(5);
+  rig.T_body_cam0 = test::random_pose(rng);
+  config.rig = rig;
+  const auto frames = read_all(*open(dir.path(), config));
+  ASSERT_TRUE(frames[0].T_world_cam_gt.has_value());
+  EXPECT_TRUE(frames[0].T_world_cam_gt->isApprox(*written[0].T_world_cam_gt * *rig.T_body_cam0, 1e-9));
+}
+
 TEST(TumRgbd, SelectionByIndexTimeAndStride) {
   TempDir dir;
   write_sequence(dir.path(), make_frames(2));

@@ -60,7 +60,7 @@ struct DatasetConfig {
   template <class V>
   void visit(V& v) {
     v("robot_id", robot_id, Limits<int>{0, 1 << 20});
-    v("max_association_difference_s", max_association_difference_s, Limits<double>{0.0, 1.0});
+    v("max_association_difference_s", max_association_difference_s, Limits<double>{1e-6, 1.0});  // 0 pairs nothing
     v("max_groundtruth_gap_s", max_groundtruth_gap_s, Limits<double>{0.0, 10.0});
     v("start_index", start_index, Limits<std::int64_t>{0});
     v("stop_index", stop_index, Limits<std::int64_t>{-1});

@@ -36,6 +36,8 @@ struct EurocImuCalibration {
 // other than radial-tangential, e.g. TUM-VI's equidistant) are InputErrors that say to pass a rig.
 EurocCameraCalibration read_euroc_camera_yaml(const std::filesystem::path& file);
 EurocImuCalibration read_euroc_imu_yaml(const std::filesystem::path& file);
+// T_BS of a sensor.yaml alone (any camera model): where the sensor sits in the body frame.
+Eigen::Isometry3d read_euroc_T_BS(const std::filesystem::path& file);
 
 // The rig of a mav0 folder from its sensor.yaml files (cam1 and imu0 when present and asked for):
 // T_body_cam0 is cam0 in the IMU frame, T_cam0_cam1 = T_B_cam0^-1 * T_B_cam1, bf = baseline * fx.
@@ -45,7 +47,10 @@ SensorRig read_euroc_rig(const std::filesystem::path& mav0, bool stereo, bool in
 std::filesystem::path find_mav0(const std::filesystem::path& root);
 
 // Opens a EuRoC or TUM-VI sequence (`format` only changes the wording and the ground-truth folder
-// searched first). Calibration: config.rig, else the sensor.yaml files.
+// searched first). Calibration: config.rig, else the sensor.yaml files. The dataset's ground truth holds
+// body poses: they become camera poses through the rig's T_body_cam0, else cam0/sensor.yaml's T_BS; with
+// neither the sequence has no ground truth (a warning says why) rather than body poses taken for the
+// camera's. A ground-truth file given in the body frame without either is an InputError.
 std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, DatasetFormat format,
                                         const DatasetConfig& config, Logger logger);
 
