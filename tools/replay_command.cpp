@@ -325,7 +325,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
                             {"first_frame", first_index[r]}};
     for (const auto& [mode, key] : {std::pair{core::AlignmentMode::kNone, "ate_world_m"}, std::pair{core::AlignmentMode::kSe3, "ate_se3_m"}}) {
       const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world), mode);
-      if (ate.ok()) entry[key] = {{"rmse", ate.stats.rmse}, {"mean", ate.stats.mean}, {"max", ate.stats.max}};
+      if (ate.measured()) entry[key] = {{"rmse", ate.stats.rmse}, {"mean", ate.stats.mean}, {"max", ate.stats.max}};
     }
     robots.push_back(entry);
   }
@@ -420,10 +420,15 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     std::string gt_source;
     const core::Trajectory gt = groundtruth(o, *source, run.per_frame_groundtruth, gt_source);
     ate = core::compute_ate(gt, run.estimate, core::associate_by_time(gt, run.estimate), core::AlignmentMode::kSe3);
-    if (ate->ok()) {
+    if (ate->measured()) {
       metrics["ate"] = ate_json(*ate, gt_source);
+      if (!ate->ok()) {
+        logger->warn("ATE alignment: {}; the ATE is still the least-squares minimum, but the alignment is not unique",
+                     core::to_string(ate->alignment.status));
+      }
     } else {
-      logger->warn("no ATE: {} estimated poses paired with the ground truth", ate->pairs.size());
+      logger->warn("no ATE: {} estimated pose(s) paired with the ground truth; the se3 alignment needs at least 3",
+                   ate->pairs.size());
       ate.reset();
     }
   }

@@ -189,6 +189,7 @@ TEST(Alignment, DegenerateInputsReportAStatus) {
   const AteResult few = compute_ate(gt, gt, two, AlignmentMode::kSe3);
   EXPECT_EQ(few.alignment.status, AlignmentStatus::kTooFewPairs);
   EXPECT_FALSE(few.ok());
+  EXPECT_FALSE(few.measured());
   EXPECT_TRUE(few.alignment.T_gt_est.matrix().isIdentity());
   // Collinear positions: a minimiser exists (the error is still right) but it is not unique.
   Trajectory line;
@@ -197,7 +198,25 @@ TEST(Alignment, DegenerateInputsReportAStatus) {
     const AteResult collinear = compute_ate(line, line, associate_by_index(line, line), mode);
     EXPECT_EQ(collinear.alignment.status, AlignmentStatus::kDegenerate);
     EXPECT_LT(collinear.stats.max, 1e-9);
+    EXPECT_FALSE(collinear.ok());
+    EXPECT_TRUE(collinear.measured());  // the errors do not depend on the free rotation
   }
+  // A straight drive against a wavy ground truth: the ATE of the collinear estimate is the limit of the
+  // ATE of estimates bent ever less off the line.
+  Trajectory wavy;
+  Trajectory along_x;
+  Trajectory bent;
+  for (int i = 0; i < 20; ++i) {
+    along_x.push_back({i, pose(Eigen::Vector3d(i, 0, 0), {0, 0, 0})});
+    wavy.push_back({i, pose(Eigen::Vector3d(i, 0.1 * std::sin(i), 0.05 * std::cos(1.3 * i)), {0, 0, 0})});
+    bent.push_back({i, pose(Eigen::Vector3d(i, 1e-3 * (i % 3), 1e-3 * (i % 2)), {0, 0, 0})});
+  }
+  const AteResult straight = compute_ate(wavy, along_x, associate_by_index(wavy, along_x), AlignmentMode::kSe3);
+  const AteResult nearly = compute_ate(wavy, bent, associate_by_index(wavy, bent), AlignmentMode::kSe3);
+  ASSERT_TRUE(straight.measured());
+  ASSERT_TRUE(nearly.ok());
+  EXPECT_GT(straight.stats.rmse, 0.01);
+  EXPECT_NEAR(straight.stats.rmse, nearly.stats.rmse, 2e-3);
   // Coincident positions: scale is undetermined and left at 1.
   const Alignment coincident = align_positions(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(1, 1, 1)),
                                                std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(2, 2, 2)),
@@ -208,6 +227,7 @@ TEST(Alignment, DegenerateInputsReportAStatus) {
   // No pairs at all.
   const AteResult none = compute_ate(gt, gt, {}, AlignmentMode::kNone);
   EXPECT_FALSE(none.ok());
+  EXPECT_FALSE(none.measured());
   EXPECT_EQ(none.stats.count, 0u);
   EXPECT_TRUE(std::isnan(none.stats.rmse));
 }

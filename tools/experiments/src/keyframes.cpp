@@ -105,7 +105,7 @@ KeyframeRun KeyframesExperiment::run_once(const SequenceSpec& spec, slam::Keyfra
   const core::Trajectory gt = groundtruth_for(spec, *source, per_frame_gt);
   const core::AteResult ate =
       core::compute_ate(gt, estimate, core::associate_by_time(gt, estimate), core::AlignmentMode::kSe3);
-  result.ate_ok = ate.ok();
+  result.ate_ok = ate.measured();
   if (result.ate_ok) {
     result.ate = ate.stats;
     result.errors_m = ate.errors_m;

@@ -78,7 +78,7 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
     const core::Trajectory world = server.world_trajectory(static_cast<int>(r));
     const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world),
                                                   core::AlignmentMode::kNone);
-    row.robot_ate_m.push_back(ate.ok() ? ate.stats.rmse : std::numeric_limits<double>::quiet_NaN());
+    row.robot_ate_m.push_back(ate.measured() ? ate.stats.rmse : std::numeric_limits<double>::quiet_NaN());
   }
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   return row;

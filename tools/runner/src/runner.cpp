@@ -457,7 +457,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       for (const auto& [mode, key] : {std::pair{core::AlignmentMode::kNone, "ate_world_m"}, std::pair{core::AlignmentMode::kSe3, "ate_se3_m"}}) {
         const core::AteResult ate = core::compute_ate(robot.groundtruth, world_trajectory,
                                                       core::associate_by_time(robot.groundtruth, world_trajectory), mode);
-        if (!ate.ok()) continue;
+        if (!ate.measured()) continue;
         entry[key] = {{"rmse", ate.stats.rmse}, {"mean", ate.stats.mean}, {"max", ate.stats.max}};
         if (mode != core::AlignmentMode::kNone) continue;
         nlohmann::json over_time = nlohmann::json::array();

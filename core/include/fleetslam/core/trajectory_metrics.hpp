@@ -105,6 +105,10 @@ struct AteResult {
   std::vector<double> errors_m;     // |gt - aligned est| per pair
   ErrorStats stats;
   bool ok() const { return !pairs.empty() && alignment.ok(); }
+  // Whether the errors are the ATE: there are pairs and the alignment was computed. A degenerate one
+  // counts: collinear (or coincident) estimate positions leave free only a rotation about their line,
+  // which moves none of them, so every error is the same whichever rotation is taken.
+  bool measured() const { return !pairs.empty() && alignment.status != AlignmentStatus::kTooFewPairs; }
 };
 
 // Aligns the paired positions (mode) and measures the translational error of every pair.
