@@ -120,6 +120,43 @@ bool optimize_pose_graph(std::map<KeyframeId, Eigen::Isometry3d>& T_world_cam, c
   return true;
 }
 
+std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<KeyframeId, Eigen::Isometry3d>& before,
+                                                 const std::map<KeyframeId, Eigen::Isometry3d>& corrected,
+                                                 const std::set<KeyframeId>& group,
+                                                 const std::map<KeyframeId, std::set<KeyframeId>>& old_connections,
+                                                 int strong_covisibility) {
+  std::vector<PoseGraphEdge> edges;
+  std::set<std::pair<KeyframeId, KeyframeId>> linked;  // (smaller id, larger id) of every edge so far
+  const auto add = [&](KeyframeId i, KeyframeId j, const Eigen::Isometry3d& T_i_j) {
+    if (linked.emplace(std::min(i, j), std::max(i, j)).second) edges.push_back({i, j, T_i_j});
+  };
+  const auto was_connected = [&](KeyframeId i, KeyframeId j) {
+    const auto it = old_connections.find(i);
+    return it != old_connections.end() && it->second.count(j) > 0;
+  };
+  const auto old_relative = [&](KeyframeId i, KeyframeId j) { return before.at(i).inverse() * before.at(j); };
+  for (const auto& [id, T] : before) {
+    const Keyframe* kf = map.keyframe(id);
+    if (kf == nullptr) continue;
+    if (kf->parent >= 0 && before.count(kf->parent) > 0) add(kf->parent, id, old_relative(kf->parent, id));
+  }
+  for (const auto& [id, T] : before) {
+    const Keyframe* kf = map.keyframe(id);
+    if (kf == nullptr) continue;
+    for (const auto& [other, weight] : kf->connections) {
+      if (other <= id || before.count(other) == 0) continue;
+      const bool in_group = group.count(id) > 0 || group.count(other) > 0;
+      const bool was_linked = !in_group || (group.count(id) > 0 ? was_connected(id, other) : was_connected(other, id));
+      if (!was_linked) {
+        add(id, other, corrected.at(id).inverse() * corrected.at(other));
+      } else if (weight >= strong_covisibility) {
+        add(id, other, old_relative(id, other));
+      }
+    }
+  }
+  return edges;
+}
+
 void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, LoopEvent& event,
                          std::set<KeyframeId>& moved) const {
   const int component = map.keyframe(current_id)->component;
@@ -162,23 +199,8 @@ void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, 
   // poses; loop edges (links new since the fusion) take the corrected ones.
   std::map<KeyframeId, Eigen::Isometry3d> poses;
   for (const auto& [id, T] : before) poses[id] = map.keyframe(id)->T_world_cam;
-  std::vector<PoseGraphEdge> edges;
-  const auto old_relative = [&](KeyframeId i, KeyframeId j) { return before[i].inverse() * before[j]; };
-  for (const auto& [id, T] : before) {
-    const Keyframe& kf = *map.keyframe(id);
-    if (kf.parent >= 0 && before.count(kf.parent) > 0) edges.push_back({kf.parent, id, old_relative(kf.parent, id)});
-    for (const auto& [other, weight] : kf.connections) {
-      if (other <= id || before.count(other) == 0) continue;
-      const bool in_group = group.count(id) > 0 || group.count(other) > 0;
-      const bool was_linked = !in_group || (group.count(id) > 0 ? old_connections[id].count(other) > 0
-                                                                : old_connections[other].count(id) > 0);
-      if (!was_linked) {
-        edges.push_back({id, other, poses[id].inverse() * poses[other]});
-      } else if (weight >= config_.strong_covisibility) {
-        edges.push_back({id, other, old_relative(id, other)});
-      }
-    }
-  }
+  const std::vector<PoseGraphEdge> edges =
+      essential_graph_edges(map, before, poses, group, old_connections, config_.strong_covisibility);
   std::map<KeyframeId, Eigen::Isometry3d> optimized = poses;
   if (fixed.empty()) fixed.insert(loop.loop);
   if (!optimize_pose_graph(optimized, edges, fixed, config_.pose_graph_iterations)) optimized = poses;
@@ -289,20 +311,19 @@ bool LoopCloser::apply_global_ba(const GlobalBaProblem& gp, const BaResult& resu
   for (std::size_t j = 0; j < gp.point_ids.size(); ++j) {
     if (MapPoint* p = map.point(gp.point_ids[j])) p->position = result.points_world[j];
   }
-  // Points the problem did not hold (created meanwhile) follow the keyframe they are anchored to.
-  if (!followed.empty() || gp.point_ids.size() < map.point_count()) {
-    const std::set<MapPointId> solved(gp.point_ids.begin(), gp.point_ids.end());
-    for (MapPointId id : map.point_ids()) {
-      if (solved.count(id) > 0) continue;
-      MapPoint& p = *map.point(id);
-      const KeyframeId anchor = anchor_of(p, map);
-      const auto f = followed.find(anchor);
-      const auto c = correction.find(anchor);
-      if (f != followed.end()) {
-        p.position = f->second * p.position;
-      } else if (c != correction.end()) {
-        p.position = c->second * p.position;
-      }
+  // Points the problem did not hold (created meanwhile, also on solved keyframes) follow the keyframe they
+  // are anchored to. All are looked at: counts cannot tell, as points are culled meanwhile too.
+  const std::set<MapPointId> solved(gp.point_ids.begin(), gp.point_ids.end());
+  for (MapPointId id : map.point_ids()) {
+    if (solved.count(id) > 0) continue;
+    MapPoint& p = *map.point(id);
+    const KeyframeId anchor = anchor_of(p, map);
+    const auto f = followed.find(anchor);
+    const auto c = correction.find(anchor);
+    if (f != followed.end()) {
+      p.position = f->second * p.position;
+    } else if (c != correction.end()) {
+      p.position = c->second * p.position;
     }
   }
   for (std::size_t o = 0; o < gp.observation_of.size(); ++o) {

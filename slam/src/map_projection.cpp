@@ -2,6 +2,7 @@
 
 #include "fleetslam/slam/map_projection.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "fleetslam/slam/matcher.hpp"
@@ -83,8 +84,16 @@ Candidate best_candidate(const Frame& frame, const ProjectedPoint& p, const Desc
 
 int search_by_projection(Frame& frame, const std::vector<ProjectedPoint>& projected, const Map& map,
                          const ProjectionSearchConfig& config) {
+  // Points the frame already holds (seed matches) are not matched a second time: two features on one
+  // point would count it twice and pair the second with a wrong feature (ORB-SLAM's "already found").
+  std::vector<MapPointId> held;
+  for (const MapPointId id : frame.map_points) {
+    if (id != kNoMapPoint) held.push_back(id);
+  }
+  std::sort(held.begin(), held.end());
   int matches = 0;
   for (const ProjectedPoint& p : projected) {
+    if (std::binary_search(held.begin(), held.end(), p.id)) continue;
     const MapPoint* point = map.point(p.id);
     if (point == nullptr) continue;
     // A nearly frontal view needs a smaller window than an oblique one (ORB-SLAM's RadiusByViewingCos).

@@ -92,6 +92,35 @@ TEST(GlobalBaApply, KeyframesAndPointsAddedDuringTheSolveFollowTheCorrection) {
   EXPECT_EQ(moved.count(other), 0u);
 }
 
+// A point created during the solve on a keyframe the problem held, while as many points were culled:
+// the map's point count is what it was, and the new point must still follow its keyframe's correction.
+TEST(GlobalBaApply, APointCreatedOnASolvedKeyframeFollowsItWhateverTheCount) {
+  std::vector<MapPointId> points;
+  Map map = make_map(3, points);
+  const LoopCloser closer(LoopClosingConfig{}, core::null_logger());
+  const std::optional<GlobalBaProblem> problem = closer.prepare_global_ba(0, map);
+  ASSERT_TRUE(problem.has_value());
+  const KeyframeId solved_kf = problem->keyframe_ids[2];
+  ASSERT_FALSE(problem->problem.keyframes[2].fixed);
+  const MapPointId new_point = map.add_map_point(Eigen::Vector3d(0.3, 0.2, 2.1), solved_kf, 55);
+  map.erase_map_point(points[5]);
+  ASSERT_EQ(map.point_count(), problem->point_ids.size());
+  const Eigen::Vector3d new_point_before = map.point(new_point)->position;
+
+  const Eigen::Isometry3d C = at(0.04, -0.03);
+  BaResult result;
+  result.ok = true;
+  for (std::size_t k = 0; k < problem->keyframe_ids.size(); ++k) {
+    const Eigen::Isometry3d T_world_cam = problem->problem.keyframes[k].T_cam_world.inverse();
+    result.T_cam_world.push_back(problem->problem.keyframes[k].fixed ? T_world_cam.inverse() : (C * T_world_cam).inverse());
+  }
+  for (const Eigen::Vector3d& p : problem->problem.points_world) result.points_world.push_back(C * p);
+  result.outlier.assign(problem->problem.observations.size(), false);
+  std::set<KeyframeId> moved;
+  ASSERT_TRUE(closer.apply_global_ba(*problem, result, map, moved));
+  EXPECT_TRUE(map.point(new_point)->position.isApprox(C * new_point_before, 1e-9));
+}
+
 TEST(GlobalBaApply, AFailedSolveChangesNothing) {
   std::vector<MapPointId> points;
   Map map = make_map(3, points);

@@ -5,11 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/slam/local_mapping.hpp"
+#include "fleetslam/slam/loop_closing.hpp"
 #include "fleetslam/slam/map.hpp"
 #include "fleetslam/slam/map_projection.hpp"
 #include "map_test_util.hpp"
@@ -403,6 +406,101 @@ TEST(ProjectionSearch, DepthMustAgreeForAPointWithANegativeRightCoordinate) {
   EXPECT_EQ(search_by_projection(f, {p}, map, ProjectionSearchConfig{}), 1);
   EXPECT_EQ(f.map_points[0], kNoMapPoint);
   EXPECT_EQ(f.map_points[1], id);
+}
+
+// A point the frame already holds (a seed match, as loop verification plants the RANSAC inliers before
+// its guided search) is not matched a second time to a look-alike feature beside it.
+TEST(ProjectionSearch, APointTheFrameHoldsIsNotMatchedAgain) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = at_x(0.0);
+  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
+  const MapPointId id = map.keyframe(k0)->frame.map_points[0];
+  const MapPoint& point = *map.point(id);
+
+  Frame f;
+  f.camera = first.camera;
+  f.pyramid = first.pyramid;
+  f.descriptors = cv::Mat(2, 32, CV_8UC1);
+  const Eigen::Vector2d uv(300.0, 200.0);
+  for (int i = 0; i < 2; ++i) {  // the seeded feature and, 0.8 px away, a decoy 2 bits off
+    const Eigen::Vector2d at = uv + Eigen::Vector2d(0.8 * i, 0.0);
+    f.keypoints.emplace_back(static_cast<float>(at.x()), static_cast<float>(at.y()), 31.0f, 0.0f, 0.0f, 0);
+    f.uv.push_back(at);
+    f.level.push_back(0);
+    std::copy(point.descriptor.begin(), point.descriptor.end(), f.descriptors.ptr<std::uint8_t>(i));
+  }
+  f.descriptors.at<std::uint8_t>(1, 0) ^= 0x3;
+  f.depth_m = {-1.0, -1.0};
+  f.finalize();
+  f.map_points[0] = id;
+
+  ProjectedPoint p;
+  p.id = id;
+  p.uv = uv;
+  p.level = 0;
+  EXPECT_EQ(search_by_projection(f, {p}, map, ProjectionSearchConfig{}), 0);
+  EXPECT_EQ(f.map_points[0], id);
+  EXPECT_EQ(f.map_points[1], kNoMapPoint);
+  // Not held, the point goes to the feature that matches it best.
+  f.map_points[0] = kNoMapPoint;
+  EXPECT_EQ(search_by_projection(f, {p}, map, ProjectionSearchConfig{}), 1);
+  EXPECT_EQ(f.map_points[0], id);
+  EXPECT_EQ(f.map_points[1], kNoMapPoint);
+}
+
+// The essential graph holds each pair of keyframes once: a spanning-tree edge that is also a strong
+// covisibility link is one edge (it was two, which gave the tree twice the weight of the other edges).
+TEST(EssentialGraph, EachPairOfKeyframesIsOneEdge) {
+  Map map;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame frame = make_frame(60, 1);
+  frame.T_world_cam = at_x(0.0);
+  std::vector<KeyframeId> ids{mapper.insert_keyframe(frame, 0, true, map, nullptr)};
+  for (int k = 1; k < 3; ++k) {  // the same 60 points from two more places: all three linked with weight 60
+    frame = map.keyframe(ids.back())->frame;
+    frame.t_ns = k;
+    frame.T_world_cam = at_x(0.1 * k);
+    ids.push_back(mapper.insert_keyframe(frame, 0, false, map, nullptr));
+  }
+  std::map<KeyframeId, Eigen::Isometry3d> before;
+  for (KeyframeId id : ids) before[id] = map.keyframe(id)->T_world_cam;
+  for (KeyframeId id : ids) {
+    ASSERT_EQ(map.keyframe(id)->connections.size(), 2u);
+    for (const auto& [other, weight] : map.keyframe(id)->connections) EXPECT_EQ(weight, 60);
+  }
+  ASSERT_EQ(map.keyframe(ids[1])->parent, ids[0]);
+  const KeyframeId parent2 = map.keyframe(ids[2])->parent;
+  ASSERT_GE(parent2, 0);
+  const auto pair_of = [](const PoseGraphEdge& e) { return std::make_pair(std::min(e.i, e.j), std::max(e.i, e.j)); };
+
+  // Every link strong: three pairs, three edges, each at its uncorrected relative pose.
+  std::vector<PoseGraphEdge> edges = essential_graph_edges(map, before, before, {}, {}, 50);
+  std::set<std::pair<KeyframeId, KeyframeId>> pairs;
+  for (const PoseGraphEdge& e : edges) {
+    EXPECT_TRUE(pairs.insert(pair_of(e)).second) << e.i << "-" << e.j << " twice";
+    EXPECT_TRUE(e.T_i_j.isApprox(before[e.i].inverse() * before[e.j], 1e-12));
+  }
+  EXPECT_EQ(edges.size(), 3u);
+
+  // None strong, and the third keyframe moved by a loop correction whose link to the keyframe other than
+  // its parent is new: the two tree edges, and the loop link at the corrected relative pose.
+  std::map<KeyframeId, Eigen::Isometry3d> corrected = before;
+  corrected[ids[2]] = at_x(0.25);
+  const KeyframeId other = parent2 == ids[0] ? ids[1] : ids[0];
+  edges = essential_graph_edges(map, before, corrected, {ids[2]}, {{ids[2], {parent2}}}, 1000);
+  ASSERT_EQ(edges.size(), 3u);
+  int loop_links = 0;
+  for (const PoseGraphEdge& e : edges) {
+    if (pair_of(e) == std::make_pair(std::min(other, ids[2]), std::max(other, ids[2]))) {
+      ++loop_links;
+      EXPECT_TRUE(e.T_i_j.isApprox(corrected[e.i].inverse() * corrected[e.j], 1e-12));
+    } else {
+      EXPECT_TRUE(e.T_i_j.isApprox(before[e.i].inverse() * before[e.j], 1e-12));
+    }
+  }
+  EXPECT_EQ(loop_links, 1);
 }
 
 }  // namespace

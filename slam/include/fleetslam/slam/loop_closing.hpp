@@ -25,6 +25,7 @@
 // Deterministic: RANSAC draws from a generator seeded with (seed, keyframe id).
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <set>
 #include <vector>
@@ -215,5 +216,16 @@ struct PoseGraphEdge {
 };
 bool optimize_pose_graph(std::map<KeyframeId, Eigen::Isometry3d>& T_world_cam, const std::vector<PoseGraphEdge>& edges,
                          const std::set<KeyframeId>& fixed, int iterations);
+
+// The essential graph of a loop correction over the keyframes of `before` (their poses before it;
+// `corrected`: after the loop group moved rigidly), each pair of keyframes at most once: spanning-tree
+// edges (parent, child) and covisibility links of weight >= strong_covisibility at their uncorrected
+// relative poses, and loop links (links of a `group` keyframe that it did not have in `old_connections`)
+// at their corrected ones. A tree edge that is also a strong link counts once, as in ORB-SLAM.
+std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<KeyframeId, Eigen::Isometry3d>& before,
+                                                 const std::map<KeyframeId, Eigen::Isometry3d>& corrected,
+                                                 const std::set<KeyframeId>& group,
+                                                 const std::map<KeyframeId, std::set<KeyframeId>>& old_connections,
+                                                 int strong_covisibility);
 
 }  // namespace fleetslam::slam

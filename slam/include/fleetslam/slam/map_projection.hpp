@@ -50,7 +50,8 @@ std::optional<ProjectedPoint> project_map_point(const MapPoint& point, const Fra
                                                 const ProjectionSearchConfig& config);
 
 // Matches projected points to the features of `frame` that hold no live map point yet (a feature
-// holds one point; the first match wins). Sets frame.map_points and returns the number of matches.
+// holds one point; the first match wins). A point some feature of the frame holds already is not matched
+// again. Sets frame.map_points and returns the number of matches.
 // `map` provides the points' descriptors.
 int search_by_projection(Frame& frame, const std::vector<ProjectedPoint>& projected, const Map& map,
                          const ProjectionSearchConfig& config);
