@@ -129,8 +129,14 @@ bool is_integer_text(std::string_view field) {
 // A seconds value of 16+ integer digits is not seconds (3e8 years): such stamps are nanoseconds.
 constexpr std::size_t kNanosecondDigits = 16;
 
-TimeNs parse_tum_stamp(std::string_view field, const std::string& where) {
-  const auto t_ns = integer_digits(field) >= kNanosecondDigits ? parse_nanoseconds(field) : parse_seconds(field);
+// A file whose stamps are all whole numbers this far apart (median step) counts them in nanoseconds: as
+// seconds, a pose every 1000 s is no trajectory, while nanosecond stamps that start near 0 (a simulation's
+// clock) are short, e.g. ORB-SLAM3's EuRoC output "50000000.000000 tx ty tz qx qy qz qw".
+constexpr double kNanosecondStepSeconds = 1000.0;
+
+TimeNs parse_tum_stamp(std::string_view field, const std::string& where, bool nanoseconds) {
+  const auto t_ns = nanoseconds || integer_digits(field) >= kNanosecondDigits ? parse_nanoseconds(field)
+                                                                              : parse_seconds(field);
   if (!t_ns) throw InputError(where, "bad timestamp '" + std::string(field) + "'");
   return *t_ns;
 }
@@ -172,12 +178,13 @@ std::string column_count_message(const Line& line, std::size_t found, const std:
   return what + " (expected " + expected + ", found " + std::to_string(found) + ")";
 }
 
-StampedPose parse_tum_line(const Line& line, const std::vector<std::string_view>& f, const std::string& where) {
+StampedPose parse_tum_line(const Line& line, const std::vector<std::string_view>& f, const std::string& where,
+                           bool nanoseconds) {
   if (f.size() != 8) throw InputError(where, column_count_message(line, f.size(), "8: t tx ty tz qx qy qz qw"));
   std::array<double, 7> v{};
   for (std::size_t i = 0; i < 7; ++i) v[i] = parse_value(f[i + 1], where);
   const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);  // Eigen's constructor takes w first
-  return {parse_tum_stamp(f[0], where), pose_from_quaternion(Eigen::Vector3d(v[0], v[1], v[2]), q, where)};
+  return {parse_tum_stamp(f[0], where, nanoseconds), pose_from_quaternion(Eigen::Vector3d(v[0], v[1], v[2]), q, where)};
 }
 
 StampedPose parse_euroc_line(const Line& line, const std::vector<std::string_view>& f, const std::string& where) {
@@ -265,9 +272,36 @@ TrajectoryFormat detect_trajectory_format(const fs::path& path) {
                               " columns (TUM has 8, EuRoC 8 or more with integer ns stamps, KITTI 12)");
 }
 
+// Whether a TUM file's stamps are nanoseconds as a whole: all whole numbers (a fraction of zeros allowed)
+// with a median step of at least kNanosecondStepSeconds. Lines it cannot read are left to the parser.
+bool tum_stamps_in_nanoseconds(const fs::path& path) {
+  DataLineReader reader(path);
+  Line line;
+  std::vector<double> stamps;
+  while (reader.next(line)) {
+    const auto fields = split_fields(line.text, at_line(reader.file(), line.number));
+    if (fields.empty()) continue;
+    const std::string_view field = fields[0];
+    if (!is_integer_text(field)) return false;
+    double value = 0.0;
+    const std::size_t digits = integer_digits(field);
+    const auto [ptr, ec] = std::from_chars(field.data(), field.data() + digits, value);
+    if (ec != std::errc() || ptr != field.data() + digits) return false;
+    stamps.push_back(value);
+  }
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < stamps.size(); ++i) {
+    if (stamps[i] > stamps[i - 1]) steps.push_back(stamps[i] - stamps[i - 1]);
+  }
+  if (steps.empty()) return false;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2] >= kNanosecondStepSeconds;
+}
+
 TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOptions& options) {
   TrajectoryFile out;
   out.format = options.format ? *options.format : detect_trajectory_format(path);
+  const bool tum_nanoseconds = out.format == TrajectoryFormat::kTum && tum_stamps_in_nanoseconds(path);
   DataLineReader reader(path);
   Line line;
   TimeNs kitti_index = 0;
@@ -276,7 +310,7 @@ TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOp
     const auto fields = split_fields(line.text, where);
     StampedPose pose;
     switch (out.format) {
-      case TrajectoryFormat::kTum: pose = parse_tum_line(line, fields, where); break;
+      case TrajectoryFormat::kTum: pose = parse_tum_line(line, fields, where, tum_nanoseconds); break;
       case TrajectoryFormat::kEuroc: pose = parse_euroc_line(line, fields, where); break;
       case TrajectoryFormat::kKitti: pose = parse_kitti_line(line, fields, where, kitti_index++); break;
     }

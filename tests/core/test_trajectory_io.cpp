@@ -133,6 +133,31 @@ TEST(TrajectoryDetect, SpaceSeparatedNanosecondStampsAreTumInNanoseconds) {
   EXPECT_EQ(read_trajectory(path).at(0).t_ns, 1403715274312143104);
 }
 
+// A simulated sequence's clock starts at 0: ORB-SLAM3's EuRoC output of it has short nanosecond stamps.
+// Whole numbers 50 ms apart in nanoseconds would be 1.6 years apart in seconds: the file counts in ns.
+TEST(TrajectoryDetect, ShortNanosecondStampsOfASimulatedClockAreNanoseconds) {
+  const fs::path path = write_file(test_dir() / "f_sim.txt",
+                                   "0.000000 0 0 0 0 0 0 1\n"
+                                   "50000000.000000 1 0 0 0 0 0 1\n"
+                                   "100000000.000000 2 0 0 0 0 0 1\n");
+  EXPECT_EQ(detect_trajectory_format(path), TrajectoryFormat::kTum);
+  const Trajectory t = read_trajectory(path);
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[0].t_ns, 0);
+  EXPECT_EQ(t[1].t_ns, 50'000'000);
+  EXPECT_EQ(t[2].t_ns, 100'000'000);
+  // Whole seconds a second apart stay seconds, and so does a single pose (nothing to tell it by).
+  const fs::path seconds = write_file(test_dir() / "whole_seconds.txt",
+                                      "1.000000 0 0 0 0 0 0 1\n2.000000 0 0 0 0 0 0 1\n3 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(read_trajectory(seconds).at(1).t_ns, 2'000'000'000);
+  const fs::path single = write_file(test_dir() / "single.txt", "50000000.000000 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(read_trajectory(single).at(0).t_ns, 50'000'000'000'000'000);
+  // One stamp with a fraction makes them all seconds.
+  const fs::path mixed = write_file(test_dir() / "mixed.txt",
+                                    "0 0 0 0 0 0 0 1\n5000.5 0 0 0 0 0 0 1\n10000 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(read_trajectory(mixed).at(1).t_ns, 5'000'500'000'000);
+}
+
 TEST(TrajectoryDetect, CommaSeparatedSecondsWithZeroFractionAreTum) {
   const fs::path path = write_file(test_dir() / "tum_commas.txt", "1.000000,0,0,0,0,0,0,1\n2.5,0,0,0,0,0,0,1\n");
   EXPECT_EQ(detect_trajectory_format(path), TrajectoryFormat::kTum);

@@ -66,7 +66,9 @@ struct TrajectoryFile {
 // Reads a trajectory. Throws InputError "file:line: why" on malformed or truncated lines, wrong column
 // counts, NaN/inf values, zero-norm quaternions, non-rotation KITTI matrices and non-increasing
 // timestamps (equal ones as options.duplicate_stamps says); an empty file (no poses) and a missing file
-// are errors naming the file.
+// are errors naming the file. TUM stamps are seconds, except stamps of 16+ integer digits and files whose
+// stamps are all whole numbers a median of 1000 or more apart: nanoseconds (ORB-SLAM3's EuRoC output,
+// "t_ns tx ty tz qx qy qz qw", also of a simulated clock that starts at 0).
 TrajectoryFile read_trajectory_file(const std::filesystem::path& path,
                                     const TrajectoryReadOptions& options);
 
