@@ -53,9 +53,11 @@ std::string fixed(double value, int decimals) {
 }
 
 nlohmann::json camera_json(const core::PinholeCamera& c) {
-  const core::RadTan& d = c.distortion();
+  const core::Distortion& d = c.distortion();
   return {{"width", c.width()}, {"height", c.height()}, {"fx", c.fx()}, {"fy", c.fy()}, {"cx", c.cx()},
-          {"cy", c.cy()}, {"distortion", {d.k1, d.k2, d.p1, d.p2, d.k3}}};
+          {"cy", c.cy()}, {"distortion_model", core::to_string(d.model)},
+          {"distortion", d.is_equidistant() ? nlohmann::json{d.k1, d.k2, d.k3, d.k4}
+                                            : nlohmann::json{d.k1, d.k2, d.p1, d.p2, d.k3}}};
 }
 
 nlohmann::json translation_json(const Eigen::Isometry3d& T) {

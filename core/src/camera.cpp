@@ -21,7 +21,7 @@ void require_finite(double value, const char* name) {
 }  // namespace
 
 PinholeCamera::PinholeCamera(int width, int height, double fx, double fy, double cx, double cy,
-                             RadTan distortion)
+                             Distortion distortion)
     : width_(width), height_(height), fx_(fx), fy_(fy), cx_(cx), cy_(cy), distortion_(distortion) {
   require(width > 0 && height > 0, "image size must be positive, got " + std::to_string(width) + "x" +
                                        std::to_string(height));
@@ -34,6 +34,14 @@ PinholeCamera::PinholeCamera(int width, int height, double fx, double fy, double
   require_finite(distortion.p1, "p1");
   require_finite(distortion.p2, "p2");
   require_finite(distortion.k3, "k3");
+  require_finite(distortion.k4, "k4");
+  require(!distortion.is_equidistant() || (distortion.p1 == 0.0 && distortion.p2 == 0.0),
+          "the equidistant model has no tangential terms (p1, p2)");
+  require(distortion.is_equidistant() || distortion.k4 == 0.0, "k4 belongs to the equidistant model");
+}
+
+const char* to_string(DistortionModel model) {
+  return model == DistortionModel::kEquidistant ? "equidistant" : "radial-tangential";
 }
 
 Eigen::Matrix3d PinholeCamera::K() const {
@@ -94,9 +102,10 @@ bool PinholeCamera::project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
 }
 
 Eigen::Vector2d PinholeCamera::distort(const Eigen::Vector2d& xn, Eigen::Matrix2d* J) const {
+  if (distortion_.is_equidistant()) return distort_equidistant(xn, J);
   // OpenCV's model: x_d = x (1 + k1 r^2 + k2 r^4 + k3 r^6) + 2 p1 x y + p2 (r^2 + 2 x^2), and
   // y_d likewise with p1 and p2 swapped roles (OpenCV docs, "Camera Calibration and 3D Reconstruction").
-  const RadTan& d = distortion_;
+  const Distortion& d = distortion_;
   const double x = xn.x();
   const double y = xn.y();
   const double x2 = x * x;
@@ -118,9 +127,63 @@ Eigen::Vector2d PinholeCamera::distort(const Eigen::Vector2d& xn, Eigen::Matrix2
   return xd;
 }
 
+// cv::fisheye's model on r = |xn|: theta = atan(r), theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8),
+// xd = xn theta_d / r. With s(r) = theta_d / r, d(xd)/d(xn) = s I + s'(r) xn xn^T / r.
+Eigen::Vector2d PinholeCamera::distort_equidistant(const Eigen::Vector2d& xn, Eigen::Matrix2d* J) const {
+  const Distortion& d = distortion_;
+  const double r = xn.norm();
+  if (r < 1e-10) {  // theta_d / r -> 1 at the centre
+    if (J != nullptr) J->setIdentity();
+    return xn;
+  }
+  const double theta = std::atan(r);
+  const double t2 = theta * theta;
+  const double theta_d = theta * (1.0 + t2 * (d.k1 + t2 * (d.k2 + t2 * (d.k3 + t2 * d.k4))));
+  const double s = theta_d / r;
+  if (J != nullptr) {
+    const double dtheta_d = 1.0 + t2 * (3.0 * d.k1 + t2 * (5.0 * d.k2 + t2 * (7.0 * d.k3 + t2 * 9.0 * d.k4)));
+    const double ds_dr = (dtheta_d / (1.0 + r * r) * r - theta_d) / (r * r);
+    *J = s * Eigen::Matrix2d::Identity() + (ds_dr / r) * (xn * xn.transpose());
+  }
+  return s * xn;
+}
+
+// Inverse of distort_equidistant: theta from theta_d = |xd| by Newton on the odd polynomial (as
+// cv::fisheye::undistortPoints), then xn = xd tan(theta) / theta_d. nullopt beyond 90 degrees (no point
+// of the z = 1 plane) or where the polynomial stops rising (the lens model folds over).
+std::optional<Eigen::Vector2d> PinholeCamera::undistort_equidistant(const Eigen::Vector2d& xd) const {
+  const Distortion& d = distortion_;
+  const double theta_d = xd.norm();
+  if (theta_d < 1e-10) return xd;
+  const auto poly = [&](double theta) {
+    const double t2 = theta * theta;
+    return theta * (1.0 + t2 * (d.k1 + t2 * (d.k2 + t2 * (d.k3 + t2 * d.k4))));
+  };
+  const auto slope = [&](double theta) {
+    const double t2 = theta * theta;
+    return 1.0 + t2 * (3.0 * d.k1 + t2 * (5.0 * d.k2 + t2 * (7.0 * d.k3 + t2 * 9.0 * d.k4)));
+  };
+  double theta = theta_d;
+  bool converged = false;
+  for (int iteration = 0; iteration < undistort_max_iterations; ++iteration) {
+    const double derivative = slope(theta);
+    if (!(derivative > 0.0)) return std::nullopt;
+    const double step = (poly(theta) - theta_d) / derivative;
+    theta -= step;
+    if (std::abs(step) < undistort_tolerance) {
+      converged = true;
+      break;
+    }
+  }
+  constexpr double kMaxTheta = 1.5707963267948966 - 1e-6;  // just short of 90 degrees
+  if (!converged || !(theta > 0.0 && theta < kMaxTheta) || !(slope(theta) > 0.0)) return std::nullopt;
+  return xd * (std::tan(theta) / theta_d);
+}
+
 std::optional<Eigen::Vector2d> PinholeCamera::undistort_normalized(const Eigen::Vector2d& xd) const {
   if (!xd.allFinite()) return std::nullopt;
   if (distortion_.is_zero()) return xd;
+  if (distortion_.is_equidistant()) return undistort_equidistant(xd);
   // Newton on f(xn) = distort(xn) - xd from xn = xd (distortion is a perturbation of the identity
   // inside the calibrated field of view). A step that does not reduce |f| is halved, which keeps the
   // iteration from jumping onto another branch of the polynomial; when halving cannot reduce |f|

@@ -44,10 +44,16 @@ void check_models(const SettingsFile& file) {
     throw InputError(file.where("camera_model"), "camera model '" + model + "' is not supported (pinhole only); " + kUseRig);
   }
   const std::string distortion = file.has("distortion_model") ? file.text("distortion_model") : "radial-tangential";
-  if (distortion != "radial-tangential" && distortion != "radtan" && distortion != "plumb_bob") {
+  if (distortion != "radial-tangential" && distortion != "radtan" && distortion != "plumb_bob" &&
+      distortion != "equidistant") {
     throw InputError(file.where("distortion_model"), "distortion model '" + distortion +
-                                                         "' cannot be modelled yet (radial-tangential only); " + kUseRig);
+                                                         "' is not supported (radial-tangential or equidistant); " +
+                                                         kUseRig);
   }
+}
+
+bool is_equidistant(const SettingsFile& file) {
+  return file.has("distortion_model") && file.text("distortion_model") == "equidistant";
 }
 
 double positive(const SettingsFile& file, const std::string& key, double fallback) {
@@ -63,8 +69,11 @@ EurocCameraCalibration read_euroc_camera_yaml(const std::filesystem::path& path)
   check_models(file);
   const std::vector<double> size = file.numbers("resolution", {2});
   const std::vector<double> k = file.numbers("intrinsics", {4});
-  const std::vector<double> d = file.numbers("distortion_coefficients", {4, 5});
-  const RadTan distortion{d[0], d[1], d[2], d[3], d.size() == 5 ? d[4] : 0.0};
+  const bool equidistant = is_equidistant(file);
+  const std::vector<double> d =
+      equidistant ? file.numbers("distortion_coefficients", {4}) : file.numbers("distortion_coefficients", {4, 5});
+  const Distortion distortion = equidistant ? Distortion::equidistant(d[0], d[1], d[2], d[3])
+                                            : Distortion{d[0], d[1], d[2], d[3], d.size() == 5 ? d[4] : 0.0};
   for (double pixels : size) {
     if (pixels != std::floor(pixels) || pixels < 1.0 || pixels > 1e5) {
       throw InputError(file.where("resolution"), "expected two positive whole numbers");

@@ -35,15 +35,18 @@ void write_text(const std::filesystem::path& file, const std::string& text) {
 
 void write_camera_yaml(const std::filesystem::path& file, const PinholeCamera& camera,
                        const Eigen::Isometry3d& T_body_cam, double rate_hz) {
-  const RadTan& d = camera.distortion();
-  std::string coefficients = exact(d.k1) + ", " + exact(d.k2) + ", " + exact(d.p1) + ", " + exact(d.p2);
-  if (d.k3 != 0.0) coefficients += ", " + exact(d.k3);
+  const Distortion& d = camera.distortion();
+  std::string coefficients = d.is_equidistant()
+                                 ? exact(d.k1) + ", " + exact(d.k2) + ", " + exact(d.k3) + ", " + exact(d.k4)
+                                 : exact(d.k1) + ", " + exact(d.k2) + ", " + exact(d.p1) + ", " + exact(d.p2);
+  if (!d.is_equidistant() && d.k3 != 0.0) coefficients += ", " + exact(d.k3);
   write_text(file, "%YAML:1.0\nsensor_type: camera\ncomment: written by fleetslam\n\nT_BS:\n  cols: 4\n  rows: 4\n"
                    "  data: [" + matrix_row_major(T_body_cam) + "]\n\nrate_hz: " + exact(rate_hz) +
                        "\nresolution: [" + std::to_string(camera.width()) + ", " + std::to_string(camera.height()) +
                        "]\ncamera_model: pinhole\nintrinsics: [" + exact(camera.fx()) + ", " + exact(camera.fy()) +
                        ", " + exact(camera.cx()) + ", " + exact(camera.cy()) +
-                       "]\ndistortion_model: radial-tangential\ndistortion_coefficients: [" + coefficients + "]\n");
+                       "]\ndistortion_model: " + to_string(d.model) + "\ndistortion_coefficients: [" + coefficients +
+                       "]\n");
 }
 
 void write_imu_yaml(const std::filesystem::path& file, const ImuNoise& noise) {

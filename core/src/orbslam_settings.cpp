@@ -222,6 +222,7 @@ class SettingsFile {
 struct Layout {
   bool v1 = false;
   bool rectified = false;        // v1.0 Camera.type "Rectified": one camera plus Stereo.b
+  bool fisheye = false;          // Camera.type "KannalaBrandt8": equidistant cameras (k1..k4)
   std::string cam0;              // "Camera." / "Camera1."
   std::string depth_map_factor;  // "DepthMapFactor" / "RGBD.DepthMapFactor"
   std::string th_depth;          // "ThDepth" / "Stereo.ThDepth"
@@ -240,13 +241,11 @@ Layout read_layout(const SettingsFile& f) {
   Layout layout;
   layout.v1 = read_is_v1(f);
   const std::string type = f.text("Camera.type").value_or("PinHole");
-  if (type == "KannalaBrandt8") {
-    f.fail("Camera.type", "fisheye (KannalaBrandt8) cameras are not supported; only PinHole and Rectified");
-  }
-  if (type != "PinHole" && type != "Rectified") {
-    f.fail("Camera.type", "unknown camera type '" + type + "': expected PinHole or Rectified");
+  if (type != "PinHole" && type != "Rectified" && type != "KannalaBrandt8") {
+    f.fail("Camera.type", "unknown camera type '" + type + "': expected PinHole, Rectified or KannalaBrandt8");
   }
   layout.rectified = type == "Rectified";
+  layout.fisheye = type == "KannalaBrandt8";
   layout.cam0 = layout.v1 ? "Camera1." : "Camera.";
   layout.depth_map_factor = layout.v1 ? "RGBD.DepthMapFactor" : "DepthMapFactor";
   layout.th_depth = layout.v1 ? "Stereo.ThDepth" : "ThDepth";
@@ -291,12 +290,20 @@ int required_positive_int(const SettingsFile& f, const std::string& key) {
   return value;
 }
 
-PinholeCamera read_camera(const SettingsFile& f, const std::string& prefix, int width, int height) {
+PinholeCamera read_camera(const SettingsFile& f, const std::string& prefix, int width, int height, bool fisheye) {
   const double fx = required_positive(f, prefix + "fx", "focal length");
   const double fy = required_positive(f, prefix + "fy", "focal length");
   const double cx = f.required(f.real(prefix + "cx"), prefix + "cx");
   const double cy = f.required(f.real(prefix + "cy"), prefix + "cy");
-  RadTan d;
+  if (fisheye) {  // ORB-SLAM3's KannalaBrandt8 reads all four coefficients
+    double k[4] = {};
+    for (int i = 0; i < 4; ++i) {  // in order, so that the first missing one is named
+      const std::string key = prefix + "k" + std::to_string(i + 1);
+      k[i] = f.required(f.real(key), key);
+    }
+    return PinholeCamera(width, height, fx, fy, cx, cy, Distortion::equidistant(k[0], k[1], k[2], k[3]));
+  }
+  Distortion d;
   d.k1 = f.real(prefix + "k1").value_or(0.0);
   d.k2 = f.real(prefix + "k2").value_or(0.0);
   d.p1 = f.real(prefix + "p1").value_or(0.0);
@@ -335,6 +342,9 @@ void read_orb_extractor(const SettingsFile& f, OrbExtractorSettings& orb) {
 void read_stereo(const SettingsFile& f, const Layout& layout, OrbSlamSettings& s) {
   SensorRig& rig = s.rig;
   double baseline_m = 0.0;
+  if (layout.fisheye && (!layout.v1 || layout.rectified)) {
+    f.fail("Camera.type", "a KannalaBrandt8 stereo pair needs Camera2.* and Stereo.T_c1_c2 (File.version \"1.0\")");
+  }
   if (!layout.v1) {
     rig.bf = required_positive(f, "Camera.bf", "baseline times fx");
     baseline_m = rig.bf / rig.cam0.fx();
@@ -342,7 +352,7 @@ void read_stereo(const SettingsFile& f, const Layout& layout, OrbSlamSettings& s
     baseline_m = required_positive(f, "Stereo.b", "baseline");
     rig.bf = baseline_m * rig.cam0.fx();
   } else {
-    rig.cam1 = read_camera(f, "Camera2.", rig.cam0.width(), rig.cam0.height());
+    rig.cam1 = read_camera(f, "Camera2.", rig.cam0.width(), rig.cam0.height(), layout.fisheye);
     rig.T_cam0_cam1 = f.required(f.rigid("Stereo.T_c1_c2"), "Stereo.T_c1_c2");
     const double norm = rig.T_cam0_cam1.translation().norm();
     if (!(norm > 0.0)) f.fail("Stereo.T_c1_c2", "baseline (translation) must be non-zero");
@@ -439,6 +449,8 @@ void check_writable(const WriteChecks& check, const OrbSlamSettings& s) {
     check.require(rig.cam1.has_value(), "Camera2.fx", "a stereo rig needs cam1");
     check.require(rig.cam1->width() == rig.cam0.width() && rig.cam1->height() == rig.cam0.height(),
                   "Camera.width", "both cameras must have the same image size");
+    check.require(rig.cam1->distortion().model == rig.cam0.distortion().model, "Camera.type",
+                  "both cameras must use the same model (one Camera.type for both)");
   }
   if (is_stereo(rig.mode) || rig.mode == SensorMode::kRgbd) {
     check.require(s.th_depth > 0.0, "Stereo.ThDepth", "stereo and RGB-D need a positive th_depth");
@@ -471,7 +483,14 @@ void write_camera(SettingsText& out, const std::string& prefix, const PinholeCam
   out.real(prefix + "fy", camera.fy());
   out.real(prefix + "cx", camera.cx());
   out.real(prefix + "cy", camera.cy());
-  const RadTan& d = camera.distortion();
+  const Distortion& d = camera.distortion();
+  if (d.is_equidistant()) {  // Camera.type KannalaBrandt8
+    out.real(prefix + "k1", d.k1);
+    out.real(prefix + "k2", d.k2);
+    out.real(prefix + "k3", d.k3);
+    out.real(prefix + "k4", d.k4);
+    return;
+  }
   if (d.is_zero()) return;  // absent keys mean no distortion to both readers; ORB-SLAM3 skips undistorting
   out.real(prefix + "k1", d.k1);
   out.real(prefix + "k2", d.k2);
@@ -567,7 +586,7 @@ std::string settings_text(const OrbSlamSettings& s) {
   out.comment("ORB-SLAM3 settings (" + to_string(rig.mode) + "), written by fleetslam");
   out.text("File.version", "1.0");
   const bool rectified = is_stereo(rig.mode) && is_rectified_pair(rig);
-  out.text("Camera.type", rectified ? "Rectified" : "PinHole");
+  out.text("Camera.type", rectified ? "Rectified" : rig.cam0.distortion().is_equidistant() ? "KannalaBrandt8" : "PinHole");
   write_camera(out, "Camera1.", rig.cam0);
   write_image_settings(out, s);
   if (is_stereo(rig.mode)) write_stereo(out, rig);
@@ -606,7 +625,7 @@ OrbSlamSettings read_orbslam_settings(const std::filesystem::path& file, std::op
 
   const int width = required_positive_int(f, "Camera.width");
   const int height = required_positive_int(f, "Camera.height");
-  s.rig.cam0 = read_camera(f, layout.cam0, width, height);
+  s.rig.cam0 = read_camera(f, layout.cam0, width, height, layout.fisheye);
   read_image_settings(f, s);
   read_orb_extractor(f, s.orb);
 

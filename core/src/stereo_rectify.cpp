@@ -1,5 +1,6 @@
 #include "fleetslam/core/stereo_rectify.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -33,9 +34,11 @@ Eigen::Matrix3d to_eigen(const cv::Mat& m) {
   return out;
 }
 
-cv::Matx<double, 5, 1> distortion_coefficients(const PinholeCamera& camera) {
-  const RadTan& d = camera.distortion();
-  return {d.k1, d.k2, d.p1, d.p2, d.k3};  // OpenCV's order
+// OpenCV's coefficients: k1 k2 p1 p2 k3 (radial-tangential) or k1 k2 k3 k4 (cv::fisheye).
+cv::Mat distortion_coefficients(const PinholeCamera& camera) {
+  const Distortion& d = camera.distortion();
+  if (d.is_equidistant()) return (cv::Mat_<double>(4, 1) << d.k1, d.k2, d.k3, d.k4);
+  return (cv::Mat_<double>(5, 1) << d.k1, d.k2, d.p1, d.p2, d.k3);
 }
 
 void validate_pair(const PinholeCamera& cam0, const PinholeCamera& cam1, const Eigen::Isometry3d& T_cam0_cam1) {
@@ -55,6 +58,18 @@ void validate_pair(const PinholeCamera& cam0, const PinholeCamera& cam1, const E
   require(t.x() > 0.0, "cam1 must lie on the +x (right) side of cam0; swap the cameras");
 }
 
+// Whether every entry of a remap table lies inside the image (so that remap reads no border).
+bool inside(const cv::Mat& map_x, const cv::Mat& map_y, const cv::Size& size) {
+  double min_x = 0.0, max_x = 0.0, min_y = 0.0, max_y = 0.0;
+  cv::minMaxLoc(map_x, &min_x, &max_x);
+  cv::minMaxLoc(map_y, &min_y, &max_y);
+  return cv::checkRange(map_x) && cv::checkRange(map_y) && min_x >= 0.0 && max_x <= size.width - 1.0 &&
+         min_y >= 0.0 && max_y <= size.height - 1.0;
+}
+
+constexpr int kMaxNarrowings = 60;  // 0.95^60: a twentieth of the field of view
+constexpr double kNarrowing = 0.95;
+
 }  // namespace
 
 Eigen::Isometry3d StereoRectification::T_cam0_rect0() const {
@@ -72,6 +87,10 @@ Eigen::Isometry3d StereoRectification::T_rect0_rect1() const {
 StereoRectification compute_stereo_rectification(const PinholeCamera& cam0, const PinholeCamera& cam1,
                                                  const Eigen::Isometry3d& T_cam0_cam1) {
   validate_pair(cam0, cam1, T_cam0_cam1);
+  require(cam0.distortion().model == cam1.distortion().model,
+          "both cameras must use the same distortion model, got " + std::string(to_string(cam0.distortion().model)) +
+              " and " + to_string(cam1.distortion().model));
+  const bool fisheye = cam0.distortion().is_equidistant();
   // OpenCV wants the transform taking cam0 points into cam1: p_cam1 = R p_cam0 + T.
   const Eigen::Isometry3d T_cam1_cam0 = T_cam0_cam1.inverse();
   const cv::Matx33d R = to_cv(T_cam1_cam0.linear());
@@ -80,11 +99,47 @@ StereoRectification compute_stereo_rectification(const PinholeCamera& cam0, cons
   const cv::Size size(cam0.width(), cam0.height());
 
   cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(to_cv(cam0.K()), distortion_coefficients(cam0), to_cv(cam1.K()),
-                    distortion_coefficients(cam1), size, R, T, R1, R2, P1, P2, Q,
-                    cv::CALIB_ZERO_DISPARITY, 0.0);
-
   StereoRectification out;
+  const auto maps = [&](const PinholeCamera& camera, const cv::Mat& R_rect, const cv::Mat& P, cv::Mat& map_x,
+                         cv::Mat& map_y) {
+    if (fisheye) {
+      cv::fisheye::initUndistortRectifyMap(to_cv(camera.K()), distortion_coefficients(camera), R_rect, P, size,
+                                           CV_32FC1, map_x, map_y);
+    } else {
+      cv::initUndistortRectifyMap(to_cv(camera.K()), distortion_coefficients(camera), R_rect, P, size, CV_32FC1,
+                                  map_x, map_y);
+    }
+  };
+  if (fisheye) {
+    // cv::fisheye's own choice (balance 0) squeezes most of the fisheye view into the image: on TUM-VI a
+    // focal length of 63 px for lenses of 190 px, so a third of the resolution at the centre and a third of
+    // the disparity (3 px at 2 m), and corners that can still lie outside the images (black corners, whose
+    // edges would give features of their own). The rectified view keeps the lenses' focal length instead
+    // (fov_scale, the divisor of cv::fisheye's focal length; about 107 degrees across on TUM-VI), and is
+    // narrowed further until every rectified pixel of both images comes from inside them, as alpha 0
+    // gives for radial-tangential pairs.
+    cv::fisheye::stereoRectify(to_cv(cam0.K()), distortion_coefficients(cam0), to_cv(cam1.K()),
+                               distortion_coefficients(cam1), size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY,
+                               size, 0.0, 1.0);
+    const double lens_focal = 0.25 * (cam0.fx() + cam0.fy() + cam1.fx() + cam1.fy());
+    double fov_scale = std::min(1.0, P1.at<double>(0, 0) / lens_focal);
+    for (int attempt = 0;; ++attempt) {
+      cv::fisheye::stereoRectify(to_cv(cam0.K()), distortion_coefficients(cam0), to_cv(cam1.K()),
+                                 distortion_coefficients(cam1), size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY,
+                                 size, 0.0, fov_scale);
+      maps(cam0, R1, P1, out.map0_x, out.map0_y);
+      maps(cam1, R2, P2, out.map1_x, out.map1_y);
+      if (inside(out.map0_x, out.map0_y, size) && inside(out.map1_x, out.map1_y, size)) break;
+      require(attempt < kMaxNarrowings, "no rectified view of the fisheye pair lies inside both images");
+      fov_scale *= kNarrowing;
+    }
+  } else {
+    cv::stereoRectify(to_cv(cam0.K()), distortion_coefficients(cam0), to_cv(cam1.K()),
+                      distortion_coefficients(cam1), size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0);
+    maps(cam0, R1, P1, out.map0_x, out.map0_y);
+    maps(cam1, R2, P2, out.map1_x, out.map1_y);
+  }
+
   out.raw0 = cam0;
   out.raw1 = cam1;
   out.R_rect0_cam0 = to_eigen(R1);
@@ -95,11 +150,6 @@ StereoRectification compute_stereo_rectification(const PinholeCamera& cam0, cons
                                  P1.at<double>(1, 2));
   out.rig.baseline_m = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
   require(out.rig.baseline_m > 0.0, "OpenCV returned a non-positive rectified baseline");
-
-  cv::initUndistortRectifyMap(to_cv(cam0.K()), distortion_coefficients(cam0), R1, P1, size, CV_32FC1,
-                              out.map0_x, out.map0_y);
-  cv::initUndistortRectifyMap(to_cv(cam1.K()), distortion_coefficients(cam1), R2, P2, size, CV_32FC1,
-                              out.map1_x, out.map1_y);
   return out;
 }
 

@@ -50,7 +50,7 @@ namespace {
 // comes undistorted).
 struct FreiburgCamera {
   double fx, fy, cx, cy;
-  RadTan distortion;
+  Distortion distortion;
 };
 
 const FreiburgCamera& freiburg_camera(int freiburg) {

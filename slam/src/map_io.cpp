@@ -82,6 +82,7 @@ void MapAccess::write_frame(Writer& w, const Frame& f) {
   w.i64(f.id);
   w.i64(f.t_ns);
   const core::PinholeCamera& c = f.camera;
+  FLEETSLAM_CHECK(!c.distortion().is_equidistant(), "map files hold frames of radial-tangential (undistorted) cameras");
   w.i32(c.width());
   w.i32(c.height());
   for (double v : {c.fx(), c.fy(), c.cx(), c.cy(), c.distortion().k1, c.distortion().k2, c.distortion().p1,
@@ -237,7 +238,7 @@ Frame MapAccess::read_frame(Reader& r) {
   for (double& v : c) v = r.f64();
   if (width != 0 || height != 0) {
     try {
-      f.camera = core::PinholeCamera(width, height, c[0], c[1], c[2], c[3], core::RadTan{c[4], c[5], c[6], c[7], c[8]});
+      f.camera = core::PinholeCamera(width, height, c[0], c[1], c[2], c[3], core::Distortion{c[4], c[5], c[6], c[7], c[8]});
     } catch (const std::invalid_argument& e) {
       r.fail(std::string("keyframe camera: ") + e.what());
     }

@@ -21,13 +21,13 @@ namespace {
 // TUM freiburg1 (Kinect): strong radial distortion with a k3 term.
 PinholeCamera tum1_camera() {
   return PinholeCamera(640, 480, 517.306408, 516.469215, 318.643040, 255.313989,
-                       RadTan{0.262383, -0.953104, -0.005358, 0.002628, 1.163314});
+                       Distortion{0.262383, -0.953104, -0.005358, 0.002628, 1.163314});
 }
 
 // EuRoC cam0: barrel distortion, no k3.
 PinholeCamera euroc_camera() {
   return PinholeCamera(752, 480, 458.654, 457.296, 367.215, 248.375,
-                       RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
+                       Distortion{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
 }
 
 struct NamedCamera {
@@ -72,7 +72,7 @@ cv::Matx33d cv_K(const PinholeCamera& camera) {
 }
 
 cv::Matx<double, 5, 1> cv_D(const PinholeCamera& camera) {
-  const RadTan& d = camera.distortion();
+  const Distortion& d = camera.distortion();
   return {d.k1, d.k2, d.p1, d.p2, d.k3};
 }
 
@@ -204,6 +204,103 @@ TEST(Camera, UndistortNormalizedInvertsDistort) {
   }
 }
 
+std::string invalid_argument_message(int width, int height, double fx, double fy, double cx, double cy, Distortion d);
+
+// TUM-VI cam0 (equidistant, 512x512, about 190 degrees across).
+PinholeCamera tumvi_camera() {
+  return PinholeCamera(512, 512, 190.97847715128717, 190.9733070521226, 254.93170605935475, 256.8974428996504,
+                       Distortion::equidistant(0.0034823894022493434, 0.0007150348452162257, -0.0020532361418706202,
+                                               0.00020293673591811182));
+}
+
+cv::Vec4d cv_fisheye_D(const PinholeCamera& camera) {
+  const Distortion& d = camera.distortion();
+  return {d.k1, d.k2, d.k3, d.k4};
+}
+
+// Camera-frame points up to max_angle off the optical axis, 0.3 to 20 m away.
+std::vector<Eigen::Vector3d> points_within_angle(double max_angle_rad, int count, unsigned seed) {
+  std::mt19937 engine(seed);
+  std::uniform_real_distribution<double> angle(0.0, max_angle_rad);
+  std::uniform_real_distribution<double> azimuth(-3.14159, 3.14159);
+  std::uniform_real_distribution<double> range(0.3, 20.0);
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < count; ++i) {
+    const double theta = angle(engine);
+    const double phi = azimuth(engine);
+    points.push_back(range(engine) *
+                     Eigen::Vector3d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)));
+  }
+  return points;
+}
+
+TEST(Camera, EquidistantMatchesOpenCvFisheye) {
+  const PinholeCamera camera = tumvi_camera();
+  const std::vector<Eigen::Vector3d> points = points_within_angle(80.0 * 3.14159265358979 / 180.0, 300, 31);
+  std::vector<cv::Point3d> object;
+  for (const Eigen::Vector3d& p : points) object.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> image;
+  cv::fisheye::projectPoints(object, image, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv_K(camera), cv_fisheye_D(camera));
+  std::vector<Eigen::Vector2d> pixels;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d uv = *camera.project(points[i]);
+    EXPECT_NEAR(uv.x(), image[i].x, 1e-9);
+    EXPECT_NEAR(uv.y(), image[i].y, 1e-9);
+    pixels.push_back(uv);
+  }
+  // Back to the pinhole plane: cv::fisheye::undistortPoints with the same K as the new camera.
+  std::vector<cv::Point2d> distorted(image.begin(), image.end());
+  std::vector<cv::Point2d> expected;
+  cv::fisheye::undistortPoints(distorted, expected, cv_K(camera), cv_fisheye_D(camera), cv::noArray(), cv_K(camera),
+                               cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-14));
+  const std::vector<Eigen::Vector2d> ours = camera.undistort_points(pixels);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d truth = *camera.undistorted().project(points[i]);
+    EXPECT_LT((ours[i] - truth).norm(), 1e-6 * (1.0 + truth.norm())) << i;
+    EXPECT_LT((ours[i] - Eigen::Vector2d(expected[i].x, expected[i].y)).norm(), 1e-5 * (1.0 + truth.norm())) << i;
+  }
+}
+
+TEST(Camera, EquidistantJacobiansAndInverse) {
+  const PinholeCamera camera = tumvi_camera();
+  for (const Eigen::Vector3d& p : points_within_angle(85.0 * 3.14159265358979 / 180.0, 300, 32)) {
+    Eigen::Vector2d uv;
+    Eigen::Matrix<double, 2, 3> J;
+    ASSERT_TRUE(camera.project(p, &uv, &J));
+    Eigen::Matrix<double, 2, 3> numeric;
+    const double h = 1e-6 * p.norm();
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d d = h * Eigen::Vector3d::Unit(i);
+      numeric.col(i) = (*camera.project(p + d) - *camera.project(p - d)) / (2.0 * h);
+    }
+    EXPECT_LT((J - numeric).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + J.cwiseAbs().maxCoeff()));
+    const std::optional<Eigen::Vector3d> q = camera.unproject(uv, p.z());
+    ASSERT_TRUE(q.has_value()) << p.transpose();
+    EXPECT_LT((*q - p).norm(), 1e-8 * p.norm());
+  }
+  // At the centre the model is the identity to first order.
+  Eigen::Matrix2d J0;
+  EXPECT_EQ(camera.distort(Eigen::Vector2d::Zero(), &J0), Eigen::Vector2d::Zero());
+  EXPECT_TRUE(J0.isIdentity());
+}
+
+TEST(Camera, EquidistantIsAFisheyeAndSeesNoFurtherThanNinetyDegrees) {
+  const PinholeCamera plain(512, 512, 200.0, 200.0, 256.0, 256.0, Distortion::equidistant(0.0, 0.0, 0.0, 0.0));
+  EXPECT_FALSE(plain.distortion().is_zero());  // r_d = theta, not tan(theta)
+  const Eigen::Vector2d xd = plain.distort(Eigen::Vector2d(1.0, 0.0));
+  EXPECT_NEAR(xd.x(), 3.14159265358979 / 4.0, 1e-15);
+  // A pixel 95 degrees off the axis (r_d = 200 px * 1.658 rad) has no point on the z = 1 plane.
+  EXPECT_FALSE(plain.unproject(Eigen::Vector2d(256.0 + 200.0 * 1.658, 256.0)).has_value());
+  EXPECT_TRUE(plain.unproject(Eigen::Vector2d(256.0 + 200.0 * 1.5, 256.0)).has_value());
+  Distortion tangential = Distortion::equidistant(0.01, 0.0, 0.0, 0.0);
+  tangential.p1 = 0.001;
+  EXPECT_NE(invalid_argument_message(512, 512, 200, 200, 256, 256, tangential).find("tangential"), std::string::npos);
+  Distortion radtan_k4;
+  radtan_k4.k4 = 0.1;
+  EXPECT_NE(invalid_argument_message(512, 512, 200, 200, 256, 256, radtan_k4).find("k4"), std::string::npos);
+  EXPECT_EQ(std::string(to_string(DistortionModel::kEquidistant)), "equidistant");
+}
+
 TEST(Camera, PointsBehindOrOnTheCameraPlaneDoNotProject) {
   const PinholeCamera camera = tum1_camera();
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -223,7 +320,7 @@ TEST(Camera, PointsBehindOrOnTheCameraPlaneDoNotProject) {
 }
 
 std::string invalid_argument_message(int width, int height, double fx, double fy, double cx, double cy,
-                                     RadTan d = {}) {
+                                     Distortion d = {}) {
   try {
     PinholeCamera(width, height, fx, fy, cx, cy, d);
   } catch (const std::invalid_argument& e) {
@@ -244,9 +341,9 @@ TEST(Camera, ConstructorRejectsNonsense) {
   EXPECT_NE(invalid_argument_message(640, 480, 500, kInf, 320, 240).find("fy"), std::string::npos);
   EXPECT_NE(invalid_argument_message(640, 480, 500, 500, kInf, 240).find("cx"), std::string::npos);
   EXPECT_NE(invalid_argument_message(640, 480, 500, 500, 320, kNaN).find("cy"), std::string::npos);
-  EXPECT_NE(invalid_argument_message(640, 480, 500, 500, 320, 240, RadTan{kNaN, 0, 0, 0, 0}).find("k1"),
+  EXPECT_NE(invalid_argument_message(640, 480, 500, 500, 320, 240, Distortion{kNaN, 0, 0, 0, 0}).find("k1"),
             std::string::npos);
-  EXPECT_NE(invalid_argument_message(640, 480, 500, 500, 320, 240, RadTan{0, 0, 0, 0, kInf}).find("k3"),
+  EXPECT_NE(invalid_argument_message(640, 480, 500, 500, 320, 240, Distortion{0, 0, 0, 0, kInf}).find("k3"),
             std::string::npos);
   EXPECT_EQ(invalid_argument_message(640, 480, 500, 500, -10, 240), "no error");  // cx outside is legal
 }

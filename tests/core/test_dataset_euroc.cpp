@@ -29,8 +29,8 @@ SensorRig stereo_rig() {
   std::mt19937 rng(11);
   SensorRig rig;
   rig.mode = SensorMode::kStereoInertial;
-  rig.cam0 = PinholeCamera(kWidth, kHeight, 40.0, 41.0, 23.5, 15.5, RadTan{-0.28, 0.07, 0.0002, 1.7e-5, 0.0});
-  rig.cam1 = PinholeCamera(kWidth, kHeight, 40.5, 40.2, 24.0, 16.0, RadTan{-0.27, 0.075, -1e-4, 0.0, 0.001});
+  rig.cam0 = PinholeCamera(kWidth, kHeight, 40.0, 41.0, 23.5, 15.5, Distortion{-0.28, 0.07, 0.0002, 1.7e-5, 0.0});
+  rig.cam1 = PinholeCamera(kWidth, kHeight, 40.5, 40.2, 24.0, 16.0, Distortion{-0.27, 0.075, -1e-4, 0.0, 0.001});
   rig.T_body_cam0 = test::random_pose(rng);
   rig.T_cam0_cam1 = test::random_pose(rng);
   rig.T_cam0_cam1.translation() = Eigen::Vector3d(0.11, 0.001, -0.002);
@@ -270,7 +270,7 @@ TEST(Euroc, BodyPosesNeedABodyToCameraTransformWhenTheRigHasNone) {
   EXPECT_EQ(open(dir.path(), config)->info().frames_with_groundtruth, written.size() - 1);
 }
 
-TEST(Euroc, TumViLayoutNeedsAGivenRigForEquidistantCameras) {
+TEST(Euroc, TumViLayoutWithEquidistantCameras) {
   TempDir dir;
   const std::vector<SensorFrame> written = make_frames(8);
   write_sequence(dir.path(), written);
@@ -283,16 +283,49 @@ TEST(Euroc, TumViLayoutNeedsAGivenRigForEquidistantCameras) {
   EXPECT_NE(source->info().groundtruth_file.find("mocap0"), std::string::npos);
   EXPECT_EQ(source->info().frames_with_groundtruth, written.size() - 1);
 
+  // TUM-VI's sensor.yaml: distortion_model equidistant, four coefficients k1..k4.
   const std::string yaml = test::read_file(mav0 / "cam0" / "sensor.yaml");
   const std::string equidistant = std::string(yaml).replace(yaml.find("radial-tangential"), 17, "equidistant");
   test::write_file(mav0 / "cam0" / "sensor.yaml", equidistant);
-  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:distortion_model", "equidistant", "rig"});
+  const Distortion written_d = stereo_rig().cam0.distortion();
+  const Distortion read_d = open(dir.path())->rig().cam0.distortion();
+  EXPECT_TRUE(read_d.is_equidistant());
+  EXPECT_EQ(read_d.k1, written_d.k1);
+  EXPECT_EQ(read_d.k3, written_d.p1);  // the file's four numbers, read as k1 k2 k3 k4
+  EXPECT_EQ(read_d.k4, written_d.p2);
+  const std::string five = std::string(equidistant).replace(equidistant.find("distortion_coefficients: ["), 27,
+                                                            "distortion_coefficients: [0.5, ");
+  test::write_file(mav0 / "cam0" / "sensor.yaml", five);
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:distortion_coefficients"});
+  test::write_file(mav0 / "cam0" / "sensor.yaml",
+                   std::string(yaml).replace(yaml.find("radial-tangential"), 17, "fov"));
+  expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml:distortion_model", "fov", "rig"});
   DatasetConfig config;
   config.rig = stereo_rig();
   source = open(dir.path(), config);
   EXPECT_EQ(read_all(*source).size(), written.size());
   std::filesystem::remove(mav0 / "cam0" / "sensor.yaml");
   expect_input_error([&] { open(dir.path()); }, {"cam0/sensor.yaml", "missing camera calibration", "rig"});
+}
+
+// A fisheye rig written and read back: sensor.yaml says equidistant, with k1..k4.
+TEST(Euroc, EquidistantRigRoundTrip) {
+  TempDir dir;
+  SensorRig rig = stereo_rig();
+  rig.cam0 = PinholeCamera(kWidth, kHeight, 19.1, 19.0, 23.5, 15.5, Distortion::equidistant(0.0035, 0.0007, -0.002, 0.0002));
+  rig.cam1 = PinholeCamera(kWidth, kHeight, 19.0, 19.2, 24.0, 16.0, Distortion::equidistant(0.0034, 0.0017, -0.0026, 0.0003));
+  write_sequence(dir.path(), make_frames(10), rig);
+  EXPECT_NE(test::read_file(dir / "mav0" / "cam0" / "sensor.yaml").find("distortion_model: equidistant"),
+            std::string::npos);
+  const auto source = open(dir.path());
+  for (const auto& [read, written] : {std::make_pair(source->rig().cam0, rig.cam0),
+                                      std::make_pair(*source->rig().cam1, *rig.cam1)}) {
+    EXPECT_TRUE(read.distortion().is_equidistant());
+    EXPECT_EQ(read.distortion().k1, written.distortion().k1);
+    EXPECT_EQ(read.distortion().k2, written.distortion().k2);
+    EXPECT_EQ(read.distortion().k3, written.distortion().k3);
+    EXPECT_EQ(read.distortion().k4, written.distortion().k4);
+  }
 }
 
 TEST(Euroc, SixteenBitImagesOfTumViReadAsEightBitGray) {

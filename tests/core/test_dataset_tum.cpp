@@ -27,7 +27,7 @@ constexpr std::size_t kHeaderLines = 3;  // comment lines before the first row o
 SensorRig small_rig() {
   SensorRig rig;
   rig.mode = SensorMode::kRgbd;
-  rig.cam0 = PinholeCamera(64, 48, 50.0, 51.0, 31.5, 23.5, RadTan{0.1, -0.05, 0.001, -0.002, 0.01});
+  rig.cam0 = PinholeCamera(64, 48, 50.0, 51.0, 31.5, 23.5, Distortion{0.1, -0.05, 0.001, -0.002, 0.01});
   rig.depth_scale = 5000.0;
   rig.bf = 40.0;
   rig.fps = 30.0;

@@ -293,6 +293,29 @@ TEST_F(OrbSlamSettingsTest, V1Stereo) {
   EXPECT_FALSE(s.rig.imu.has_value());
 }
 
+// ORB-SLAM3's TUM-VI settings: KannalaBrandt8 cameras (the equidistant model), k1..k4 each.
+TEST_F(OrbSlamSettingsTest, V1FisheyeStereo) {
+  std::string text = with(v1_stereo(), "Camera.type", "\"KannalaBrandt8\"");
+  for (const char* camera : {"Camera1.", "Camera2."}) {
+    const std::string c(camera);
+    text = without(without(text, c + "p1"), c + "p2");
+    text = with(text, c + "k1", "0.0034823894022493434");
+    text = with(text, c + "k2", "0.0007150348452162257");
+    text += c + "k3: -0.0020532361418706202\n" + c + "k4: 0.00020293673591811182\n";
+  }
+  const OrbSlamSettings s = read(text);
+  EXPECT_EQ(s.rig.mode, SensorMode::kStereo);
+  for (const PinholeCamera* camera : {&s.rig.cam0, &*s.rig.cam1}) {
+    const Distortion& d = camera->distortion();
+    EXPECT_TRUE(d.is_equidistant());
+    EXPECT_FALSE(d.is_zero());
+    EXPECT_DOUBLE_EQ(d.k1, 0.0034823894022493434);
+    EXPECT_DOUBLE_EQ(d.k3, -0.0020532361418706202);
+    EXPECT_DOUBLE_EQ(d.k4, 0.00020293673591811182);
+    EXPECT_EQ(d.p1, 0.0);
+  }
+}
+
 TEST_F(OrbSlamSettingsTest, V1StereoInertial) {
   const OrbSlamSettings s = read(v1_stereo() + v1_imu());
   EXPECT_EQ(s.rig.mode, SensorMode::kStereoInertial);
@@ -449,7 +472,10 @@ TEST_F(OrbSlamSettingsTest, OutOfRangeValues) {
   expect_error(with(kOldRgbd, "ORBextractor.nFeatures", "0"), "ORBextractor.nFeatures", "positive");
   expect_error(with(v1_stereo() + v1_imu(), "IMU.Frequency", "0"), "IMU.Frequency", "must be positive");
   expect_error(with(kV1Camera1, "File.version", "\"2.0\""), "File.version", "unsupported version");
-  expect_error(with(kV1Camera1, "Camera.type", "\"KannalaBrandt8\""), "Camera.type", "not supported");
+  // A fisheye camera reads all four Kannala-Brandt coefficients (ORB-SLAM3 needs them).
+  expect_error(with(kV1Camera1, "Camera.type", "\"KannalaBrandt8\""), "Camera1.k3", "missing");
+  expect_error(std::string(kOldStereo) + "Camera.type: \"KannalaBrandt8\"\nCamera.k3: 0\nCamera.k4: 0\n",
+               "Camera.type", "Stereo.T_c1_c2");
   expect_error(with(kV1Camera1, "Camera.type", "\"Fancy\""), "Camera.type", "unknown camera type");
 }
 
@@ -483,7 +509,7 @@ TEST_F(OrbSlamSettingsTest, BadMatrices) {
 // Awkward values (no short decimal) so that an inexact writer shows.
 PinholeCamera distorted_camera(double fx) {
   return PinholeCamera(752, 480, fx, fx * (1.0 + 1.0 / 3e3), 367.215 + 1.0 / 7.0, 248.375 - 1.0 / 9.0,
-                       RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, -1.0 / 3e4});
+                       Distortion{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, -1.0 / 3e4});
 }
 
 Eigen::Isometry3d pose(double angle_rad, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
@@ -556,6 +582,20 @@ std::vector<std::pair<std::string, OrbSlamSettings>> settings_of_every_mode() {
   rectified.th_depth = 60.0;
   all.emplace_back("stereo, rectified", rectified);
 
+  OrbSlamSettings fisheye = base_settings(SensorMode::kStereoInertial);
+  add_second_camera(fisheye);
+  add_imu(fisheye);
+  fisheye.rig.cam0 = PinholeCamera(512, 512, 190.97847715128717, 190.9733070521226, 254.93170605935475,
+                                   256.8974428996504,
+                                   Distortion::equidistant(0.0034823894022493434, 0.0007150348452162257,
+                                                           -0.0020532361418706202, 0.00020293673591811182));
+  fisheye.rig.cam1 = PinholeCamera(512, 512, 190.44236969414825, 190.4344384721956, 252.59949716835982,
+                                   254.91723064636983,
+                                   Distortion::equidistant(0.0034003170790442797, 0.001766278153469831,
+                                                           -0.00266312569781606, 0.0003299517423931039));
+  fisheye.rig.bf = fisheye.rig.T_cam0_cam1.translation().norm() * fisheye.rig.cam0.fx();
+  all.emplace_back("stereo_inertial, fisheye (TUM-VI)", fisheye);
+
   OrbSlamSettings stereo_inertial = base_settings(SensorMode::kStereoInertial);
   add_second_camera(stereo_inertial);
   add_imu(stereo_inertial);
@@ -586,6 +626,8 @@ void expect_same_camera(const PinholeCamera& a, const PinholeCamera& b) {
   EXPECT_EQ(a.distortion().p1, b.distortion().p1);
   EXPECT_EQ(a.distortion().p2, b.distortion().p2);
   EXPECT_EQ(a.distortion().k3, b.distortion().k3);
+  EXPECT_EQ(a.distortion().k4, b.distortion().k4);
+  EXPECT_EQ(a.distortion().model, b.distortion().model);
 }
 
 // Every field, compared exactly.
@@ -655,7 +697,13 @@ TEST_F(OrbSlamSettingsTest, WrittenFileHasTheKeysAndTypesOrbSlam3Reads) {
     const SensorMode mode = written.rig.mode;
     const bool stereo = mode == SensorMode::kStereo || mode == SensorMode::kStereoInertial;
     const bool rectified = stereo && written.rig.cam1->fx() == written.rig.cam0.fx();
-    EXPECT_EQ(static_cast<std::string>(file["Camera.type"]), rectified ? "Rectified" : "PinHole");
+    const bool fisheye = written.rig.cam0.distortion().is_equidistant();
+    EXPECT_EQ(static_cast<std::string>(file["Camera.type"]),
+              rectified ? "Rectified" : fisheye ? "KannalaBrandt8" : "PinHole");
+    if (fisheye) {
+      for (const char* key : {"Camera1.k1", "Camera1.k2", "Camera1.k3", "Camera1.k4"}) expect_real(key);
+      EXPECT_TRUE(file["Camera1.p1"].empty());
+    }
     if (stereo || mode == SensorMode::kRgbd) expect_real("Stereo.ThDepth");
     if (mode == SensorMode::kRgbd) {
       expect_real("RGBD.DepthMapFactor");
@@ -715,6 +763,10 @@ TEST_F(OrbSlamSettingsTest, SettingsThatWouldNotReadBackAreNotWritten) {
   stereo.th_depth = 40.0;
   stereo.rig.cam1 = PinholeCamera(640, 480, 500.0, 500.0, 320.0, 240.0);
   expect_write_error(path, stereo, "Camera.width", "same image size");
+  add_second_camera(stereo);
+  stereo.rig.cam1 = PinholeCamera(stereo.rig.cam0.width(), stereo.rig.cam0.height(), 500.0, 500.0, 320.0, 240.0,
+                                  Distortion::equidistant(0.01, 0.0, 0.0, 0.0));
+  expect_write_error(path, stereo, "Camera.type", "same model");
   OrbSlamSettings rgbd = base_settings(SensorMode::kRgbd);
   rgbd.th_depth = 40.0;
   expect_write_error(path, rgbd, "Stereo.b", "bf");

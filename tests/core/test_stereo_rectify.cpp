@@ -36,9 +36,9 @@ RawRig euroc_rig() {
        0, 0, 0, 1;
   return {"euroc",
           PinholeCamera(752, 480, 458.654, 457.296, 367.215, 248.375,
-                        RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0}),
+                        Distortion{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0}),
           PinholeCamera(752, 480, 457.587, 456.134, 379.999, 255.238,
-                        RadTan{-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05, 0.0}),
+                        Distortion{-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05, 0.0}),
           normalized(Eigen::Isometry3d(M))};
 }
 
@@ -48,11 +48,26 @@ RawRig skewed_rig() {
   T.linear() = so3_exp(Eigen::Vector3d(1.0 * kDegToRad, -4.0 * kDegToRad, 2.0 * kDegToRad));
   T.translation() = Eigen::Vector3d(0.12, 0.006, -0.004);
   return {"skewed",
-          PinholeCamera(640, 480, 520.0, 518.0, 322.0, 241.0, RadTan{0.1, -0.25, 0.001, -0.0005, 0.05}),
-          PinholeCamera(640, 480, 505.0, 507.0, 315.0, 236.0, RadTan{-0.2, 0.05, 0.0, 0.001, 0.0}), T};
+          PinholeCamera(640, 480, 520.0, 518.0, 322.0, 241.0, Distortion{0.1, -0.25, 0.001, -0.0005, 0.05}),
+          PinholeCamera(640, 480, 505.0, 507.0, 315.0, 236.0, Distortion{-0.2, 0.05, 0.0, 0.001, 0.0}), T};
 }
 
-std::vector<RawRig> rigs() { return {euroc_rig(), skewed_rig()}; }
+// TUM-VI's fisheye pair (equidistant model), 10 cm apart, slightly rotated.
+RawRig tumvi_rig() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = so3_exp(Eigen::Vector3d(0.4 * kDegToRad, 0.3 * kDegToRad, -0.2 * kDegToRad));
+  T.translation() = Eigen::Vector3d(0.101, -0.0019, -0.0010);
+  return {"tumvi",
+          PinholeCamera(512, 512, 190.97847715128717, 190.9733070521226, 254.93170605935475, 256.8974428996504,
+                        Distortion::equidistant(0.0034823894022493434, 0.0007150348452162257,
+                                                -0.0020532361418706202, 0.00020293673591811182)),
+          PinholeCamera(512, 512, 190.44236969414825, 190.4344384721956, 252.59949716835982, 254.91723064636983,
+                        Distortion::equidistant(0.0034003170790442797, 0.001766278153469831, -0.00266312569781606,
+                                                0.0003299517423931039)),
+          T};
+}
+
+std::vector<RawRig> rigs() { return {euroc_rig(), skewed_rig(), tumvi_rig()}; }
 
 // Points in the cam0 frame, 0.5 to 15 m away, that project inside both raw images.
 std::vector<Eigen::Vector3d> points_seen_by_both(const RawRig& rig, int count, unsigned seed) {

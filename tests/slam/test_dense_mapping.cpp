@@ -111,7 +111,7 @@ TEST(DenseMapping, NormalsOfATiltedPlaneFaceTheCamera) {
 
 TEST(DenseMapping, DistortedCameraUsesUndistortedRays) {
   core::SensorRig rig = test::synthetic_rgbd_rig();
-  rig.cam0 = core::PinholeCamera(640, 480, 500.0, 500.0, 319.5, 239.5, core::RadTan{0.1, -0.05, 0.001, 0.0, 0.0});
+  rig.cam0 = core::PinholeCamera(640, 480, 500.0, 500.0, 319.5, 239.5, core::Distortion{0.1, -0.05, 0.001, 0.0, 0.0});
   const FrameBuilder builder(FrameBuilderConfig{}, rig);
   const DenseMapper mapper(config_with_stride(16), builder);
   const core::PointCloud cloud = mapper.keyframe_cloud(flat_frame(rig, 1.5f));

@@ -273,8 +273,8 @@ TEST(Frame, FinalizeFillsPerFeatureStateAndTheGrid) {
 
 TEST(Frame, UndistortedBoundsHoldEveryUndistortedPixel) {
   const core::PinholeCamera barrel(752, 480, 458.654, 457.296, 367.215, 248.375,
-                                   core::RadTan{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
-  const core::PinholeCamera pincushion(640, 480, 517.3, 516.5, 318.6, 255.3, core::RadTan{0.2624, -0.9531, -0.0054, 0.0026, 1.1633});
+                                   core::Distortion{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
+  const core::PinholeCamera pincushion(640, 480, 517.3, 516.5, 318.6, 255.3, core::Distortion{0.2624, -0.9531, -0.0054, 0.0026, 1.1633});
   for (const core::PinholeCamera& raw : {barrel, pincushion}) {
     const ImageBounds b = undistorted_image_bounds(raw);
     std::vector<Eigen::Vector2d> pixels;

@@ -10,23 +10,53 @@
 
 namespace fleetslam::core {
 
-// Radial-tangential (OpenCV "plumb bob") distortion on normalised coordinates.
-struct RadTan {
+enum class DistortionModel {
+  kRadialTangential,  // OpenCV's "plumb bob" (EuRoC's radial-tangential, ORB-SLAM's PinHole)
+  kEquidistant,       // Kannala-Brandt / OpenCV fisheye (TUM-VI's equidistant, ORB-SLAM's KannalaBrandt8)
+};
+
+// Lens distortion on normalised coordinates x = X / Z:
+//  - radial-tangential: x_d = x (1 + k1 r^2 + k2 r^4 + k3 r^6) + tangential terms in p1, p2 (OpenCV order
+//    k1 k2 p1 p2 k3); all zero is no distortion;
+//  - equidistant: with r = |x| and theta = atan(r), x_d = x theta_d / r where
+//    theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8) (cv::fisheye); p1 and p2 unused.
+//    Even with all coefficients zero it is a fisheye (r_d = theta), not a pinhole.
+struct Distortion {
   double k1 = 0.0;
   double k2 = 0.0;
   double p1 = 0.0;
   double p2 = 0.0;
   double k3 = 0.0;
+  double k4 = 0.0;  // equidistant only
+  DistortionModel model = DistortionModel::kRadialTangential;
 
-  bool is_zero() const { return k1 == 0.0 && k2 == 0.0 && p1 == 0.0 && p2 == 0.0 && k3 == 0.0; }
+  static Distortion equidistant(double k1, double k2, double k3, double k4) {
+    Distortion d;
+    d.k1 = k1;
+    d.k2 = k2;
+    d.k3 = k3;
+    d.k4 = k4;
+    d.model = DistortionModel::kEquidistant;
+    return d;
+  }
+  bool is_equidistant() const { return model == DistortionModel::kEquidistant; }
+  // No distortion at all: the plain pinhole.
+  bool is_zero() const {
+    return model == DistortionModel::kRadialTangential && k1 == 0.0 && k2 == 0.0 && p1 == 0.0 && p2 == 0.0 &&
+           k3 == 0.0;
+  }
 };
 
-// Pinhole camera with radial-tangential distortion.
+// "radial-tangential" or "equidistant" (EuRoC / TUM-VI sensor.yaml names).
+const char* to_string(DistortionModel model);
+
+// Pinhole camera with lens distortion (radial-tangential or equidistant). Points are projected from
+// the half-space in front of the camera (z > 0): a fisheye's view beyond 90 degrees is not modelled.
 class PinholeCamera {
  public:
   PinholeCamera() = default;
   // Throws std::invalid_argument on non-positive size or focal length, or non-finite values.
-  PinholeCamera(int width, int height, double fx, double fy, double cx, double cy, RadTan distortion = {});
+  PinholeCamera(int width, int height, double fx, double fy, double cx, double cy, Distortion distortion = {});
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -34,7 +64,7 @@ class PinholeCamera {
   double fy() const { return fy_; }
   double cx() const { return cx_; }
   double cy() const { return cy_; }
-  const RadTan& distortion() const { return distortion_; }
+  const Distortion& distortion() const { return distortion_; }
   Eigen::Matrix3d K() const;
   // Same intrinsics without distortion (the ideal camera undistorted points live in).
   PinholeCamera undistorted() const;
@@ -57,7 +87,8 @@ class PinholeCamera {
 
   // Normalised undistorted -> normalised distorted coordinates, with the 2x2 Jacobian when J is not null.
   Eigen::Vector2d distort(const Eigen::Vector2d& xn, Eigen::Matrix2d* J = nullptr) const;
-  // Inverse of distort (Newton with step halving, from xn = xd); nullopt when it does not converge within
+  // Inverse of distort (radial-tangential: Newton with step halving, from xn = xd; equidistant: Newton on
+  // the angle, nullopt from 90 degrees on); nullopt when it does not converge within
   // undistort_max_iterations to undistort_tolerance, or converges where distort() folds over
   // (det of its Jacobian <= 0: beyond the calibrated region of strong radial distortion).
   std::optional<Eigen::Vector2d> undistort_normalized(const Eigen::Vector2d& xd) const;
@@ -75,13 +106,16 @@ class PinholeCamera {
   static constexpr double undistort_tolerance = 1e-12;
 
  private:
+  Eigen::Vector2d distort_equidistant(const Eigen::Vector2d& xn, Eigen::Matrix2d* J) const;
+  std::optional<Eigen::Vector2d> undistort_equidistant(const Eigen::Vector2d& xd) const;
+
   int width_ = 0;
   int height_ = 0;
   double fx_ = 1.0;
   double fy_ = 1.0;
   double cx_ = 0.0;
   double cy_ = 0.0;
-  RadTan distortion_;
+  Distortion distortion_;
 };
 
 // Rectified stereo rig: both images share the (distortion-free) intrinsics `camera`; the right camera

@@ -53,7 +53,7 @@ struct DatasetConfig {
   std::string groundtruth_file;
   bool groundtruth_in_body_frame = false;
   // Calibration to use instead of the dataset's own files or built-in defaults (required for TUM-VI
-  // sequences whose cameras use the equidistant model, and for TUM folders of unknown cameras).
+  // exports without sensor.yaml files, and for TUM folders of unknown cameras).
   std::optional<SensorRig> rig;
   std::string rig_source;  // where `rig` came from (a file name), reported by info()
 

@@ -3,7 +3,8 @@
 //   mav0/cam0/data.csv    "t_ns,filename" with images under cam0/data/ (8-bit gray PNG)
 //   mav0/cam1/...         right camera; frames pair with cam0 by identical stamps
 //   mav0/<sensor>/sensor.yaml   calibration (OpenCV FileStorage YAML): T_BS (sensor in body frame),
-//                         resolution, intrinsics [fu fv cu cv], radial-tangential distortion, rate_hz;
+//                         resolution, intrinsics [fu fv cu cv], radial-tangential or (TUM-VI) equidistant
+//                         distortion, rate_hz;
 //                         for imu0 the noise densities and random walks
 //   mav0/imu0/data.csv    "t_ns,wx,wy,wz,ax,ay,az" (rad/s, m/s^2)
 //   mav0/state_groundtruth_estimate0/data.csv (EuRoC) or mav0/mocap0/data.csv (TUM-VI): body poses
@@ -32,8 +33,8 @@ struct EurocImuCalibration {
   Eigen::Isometry3d T_body_imu = Eigen::Isometry3d::Identity();  // T_BS
 };
 
-// Readers of sensor.yaml. Unsupported models (camera_model other than pinhole, distortion_model
-// other than radial-tangential, e.g. TUM-VI's equidistant) are InputErrors that say to pass a rig.
+// Readers of sensor.yaml. Unsupported models (camera_model other than pinhole, distortion_model other
+// than radial-tangential or equidistant) are InputErrors that say to pass a rig.
 EurocCameraCalibration read_euroc_camera_yaml(const std::filesystem::path& file);
 EurocImuCalibration read_euroc_imu_yaml(const std::filesystem::path& file);
 // T_BS of a sensor.yaml alone (any camera model): where the sensor sits in the body frame.
