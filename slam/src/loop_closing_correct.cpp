@@ -140,6 +140,13 @@ std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<
     if (kf == nullptr) continue;
     if (kf->parent >= 0 && before.count(kf->parent) > 0) add(kf->parent, id, old_relative(kf->parent, id));
   }
+  for (const auto& [id, T] : before) {  // earlier loops' constraints, whatever their covisibility now
+    const Keyframe* kf = map.keyframe(id);
+    if (kf == nullptr) continue;
+    for (KeyframeId other : kf->loop_edges) {
+      if (other > id && before.count(other) > 0) add(id, other, old_relative(id, other));
+    }
+  }
   for (const auto& [id, T] : before) {
     const Keyframe* kf = map.keyframe(id);
     if (kf == nullptr) continue;
@@ -202,6 +209,7 @@ void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, 
   const std::vector<PoseGraphEdge> edges =
       essential_graph_edges(map, before, poses, group, old_connections, config_.strong_covisibility);
   std::map<KeyframeId, Eigen::Isometry3d> optimized = poses;
+  map.add_loop_edge(current_id, loop.loop);  // the later graphs' constraint (after this one's edges)
   if (fixed.empty()) fixed.insert(loop.loop);
   if (!optimize_pose_graph(optimized, edges, fixed, config_.pose_graph_iterations)) optimized = poses;
   // 4. Points follow their anchor keyframe from its pose before the graph to its pose after it.

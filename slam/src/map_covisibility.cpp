@@ -96,9 +96,20 @@ void Map::adopt_children(Keyframe& culled) {
   }
 }
 
+bool Map::add_loop_edge(KeyframeId a, KeyframeId b) {
+  Keyframe* ka = keyframe(a);
+  Keyframe* kb = keyframe(b);
+  if (ka == nullptr || kb == nullptr || a == b) return false;
+  ka->loop_edges.insert(b);
+  kb->loop_edges.insert(a);
+  return true;
+}
+
 bool Map::erase_keyframe(KeyframeId kf_id) {
   Keyframe* kf = keyframe(kf_id);
-  if (kf == nullptr || kf->root || kf->parent < 0 || keyframe(kf->parent) == nullptr) return false;
+  if (kf == nullptr || kf->root || kf->parent < 0 || keyframe(kf->parent) == nullptr || !kf->loop_edges.empty()) {
+    return false;
+  }
   for (std::size_t i = 0; i < kf->frame.size(); ++i) {
     const MapPointId id = kf->frame.map_points[i];
     if (id != kNoMapPoint) erase_observation(id, kf_id);

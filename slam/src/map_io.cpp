@@ -158,6 +158,8 @@ void MapAccess::write_keyframe(Writer& w, const Keyframe& kf) {
   w.i64(kf.parent);
   w.size(kf.children.size());
   for (KeyframeId id : kf.children) w.i64(id);
+  w.size(kf.loop_edges.size());
+  for (KeyframeId id : kf.loop_edges) w.i64(id);
 }
 
 void MapAccess::write_point(Writer& w, const MapPoint& p) {
@@ -328,6 +330,8 @@ Keyframe MapAccess::read_keyframe(Reader& r) {
   kf.parent = r.i64();
   const std::size_t children = r.count(8, "children");
   for (std::size_t i = 0; i < children; ++i) kf.children.insert(r.i64());
+  const std::size_t loop_edges = r.count(8, "loop edges");
+  for (std::size_t i = 0; i < loop_edges; ++i) kf.loop_edges.insert(r.i64());
   return kf;
 }
 
@@ -472,6 +476,12 @@ std::string MapAccess::validate(const Map& m) {
     for (KeyframeId child : kf.children) {
       if (m.keyframes_.count(child) == 0 || child == id) return at + ": unknown child";
     }
+    for (KeyframeId other : kf.loop_edges) {
+      const auto partner = m.keyframes_.find(other);
+      if (partner == m.keyframes_.end() || other == id || partner->second.loop_edges.count(id) == 0) {
+        return at + ": a loop edge to an unknown keyframe or one way only";
+      }
+    }
   }
   for (const auto& [id, p] : m.points_) {
     const std::string at = "map point " + std::to_string(id);
@@ -579,6 +589,7 @@ std::string keyframe_difference(const Keyframe& a, const Keyframe& b) {
   if (a.neighbours != b.neighbours) return "neighbours";
   if (a.parent != b.parent) return "parent";
   if (a.children != b.children) return "children";
+  if (a.loop_edges != b.loop_edges) return "loop_edges";
   return {};
 }
 

@@ -5,14 +5,19 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <string>
 #include <vector>
 
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/trajectory_metrics.hpp"
 #include "fleetslam/slam/agent.hpp"
+#include "fleetslam/slam/map_io.hpp"
 #include "synthetic_room.hpp"
 
 namespace fleetslam::slam {
@@ -60,6 +65,7 @@ struct LoopRun {
   core::Trajectory trajectory;
   std::vector<LoopEvent> loops;
   int tracked = 0;
+  Map map;  // as saved at the end
 };
 
 LoopRun run(bool loop_closing) {
@@ -79,6 +85,11 @@ LoopRun run(bool loop_closing) {
   }
   agent.finish();
   r.trajectory = agent.trajectory();
+  const std::filesystem::path file = std::filesystem::temp_directory_path() /
+                                     ("fleetslam_loop_" + std::to_string(loop_closing) + "_" + std::to_string(::getpid()) + ".fsmap");
+  agent.save_map(file);
+  r.map = load_map(file).map;
+  std::filesystem::remove(file);
   return r;
 }
 
@@ -108,6 +119,14 @@ TEST(LoopClosing, SyntheticLoopIsClosedAndHalvesTheAte) {
   EXPECT_GE(closed.loops.front().inliers, 40);
   EXPECT_LT(ate_closed, 0.5 * ate_open);
   EXPECT_EQ(closed.tracked, static_cast<int>(loop_sequence().size()));
+  // The loop's keyframes keep their loop edge (for later loops' essential graphs) and were not culled.
+  for (const LoopEvent& e : closed.loops) {
+    const Keyframe* current = closed.map.keyframe(e.current);
+    ASSERT_NE(current, nullptr);
+    EXPECT_EQ(current->loop_edges.count(e.loop), 1u);
+    ASSERT_NE(closed.map.keyframe(e.loop), nullptr);
+    EXPECT_EQ(closed.map.keyframe(e.loop)->loop_edges.count(e.current), 1u);
+  }
 }
 
 TEST(LoopClosing, MissingVocabularyIsAnInputError) {

@@ -501,6 +501,24 @@ TEST(EssentialGraph, EachPairOfKeyframesIsOneEdge) {
     }
   }
   EXPECT_EQ(loop_links, 1);
+
+  // An earlier loop's edge stays in the graph, at its uncorrected relative pose, weak as its link may be.
+  ASSERT_TRUE(map.add_loop_edge(ids[0], ids[2]));
+  EXPECT_FALSE(map.add_loop_edge(ids[0], ids[0]));
+  EXPECT_FALSE(map.add_loop_edge(ids[0], 999));
+  edges = essential_graph_edges(map, before, corrected, {}, {}, 1000);
+  int kept = 0;
+  for (const PoseGraphEdge& e : edges) {
+    if (pair_of(e) == std::make_pair(ids[0], ids[2])) {
+      ++kept;
+      EXPECT_TRUE(e.T_i_j.isApprox(before[e.i].inverse() * before[e.j], 1e-12));
+    }
+  }
+  EXPECT_EQ(kept, 1);
+  EXPECT_EQ(edges.size(), parent2 == ids[0] ? 2u : 3u);
+  // Keyframes joined by a loop are never culled.
+  EXPECT_FALSE(map.erase_keyframe(ids[2]));
+  EXPECT_NE(map.keyframe(ids[2]), nullptr);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -166,6 +167,22 @@ TEST(MapIo, RoundTripKeepsCulledKeyframesAndReplacedPoints) {
   EXPECT_EQ(loaded.map.resolve(ids[ids.size() / 2]), ids[ids.size() / 2 + 1]);
   ASSERT_TRUE(loaded.map.keyframe_pose(victim).has_value());
   EXPECT_TRUE(loaded.map.keyframe_pose(victim)->matrix() == map.keyframe_pose(victim)->matrix());
+}
+
+TEST(MapIo, RoundTripKeepsLoopEdges) {
+  Map map = first_run().map;
+  const KeyframeId first = map.keyframes().begin()->first;
+  const KeyframeId last = map.keyframes().rbegin()->first;
+  ASSERT_TRUE(map.add_loop_edge(last, first));
+  const SavedMap loaded = map_from_bytes(map_to_bytes(map, 0), "memory");
+  EXPECT_EQ(map_difference(map, loaded.map), "");
+  EXPECT_EQ(loaded.map.keyframe(first)->loop_edges, std::set<KeyframeId>{last});
+  EXPECT_EQ(loaded.map.keyframe(last)->loop_edges, std::set<KeyframeId>{first});
+  Map one_way = map;
+  one_way.keyframe(first)->loop_edges.clear();
+  EXPECT_NE(map_difference(map, one_way).find("loop_edges"), std::string::npos);
+  // A file whose loop edge goes one way only is refused.
+  EXPECT_THROW(map_from_bytes(map_to_bytes(one_way, 0), "memory"), InputError);
 }
 
 TEST(MapIo, ComparisonSeesASingleChangedField) {
@@ -348,11 +365,11 @@ TEST(MapIo, ForeignFilesAreInputErrors) {
 
 TEST(MapIo, OtherFormatVersionsAreInputErrors) {
   std::string data = first_run().bytes;
-  data[8] = 2;  // the u32 format version after the 8-byte magic
+  data[8] = 3;  // the u32 format version after the 8-byte magic
   repair_checksum(data);
-  const fs::path file = test_dir() / "v2.fsmap";
+  const fs::path file = test_dir() / "v3.fsmap";
   const std::string why = load_error(file, data);
-  EXPECT_NE(why.find("version 2 is not supported"), std::string::npos) << why;
+  EXPECT_NE(why.find("version 3 is not supported"), std::string::npos) << why;
   EXPECT_NE(why.find(file.string()), std::string::npos) << why;
 }
 

@@ -219,8 +219,8 @@ bool optimize_pose_graph(std::map<KeyframeId, Eigen::Isometry3d>& T_world_cam, c
 
 // The essential graph of a loop correction over the keyframes of `before` (their poses before it;
 // `corrected`: after the loop group moved rigidly), each pair of keyframes at most once: spanning-tree
-// edges (parent, child) and covisibility links of weight >= strong_covisibility at their uncorrected
-// relative poses, and loop links (links of a `group` keyframe that it did not have in `old_connections`)
+// edges (parent, child), earlier loops' edges (Keyframe::loop_edges) and covisibility links of weight >=
+// strong_covisibility at their uncorrected relative poses, and loop links (links of a `group` keyframe that it did not have in `old_connections`)
 // at their corrected ones. A tree edge that is also a strong link counts once, as in ORB-SLAM.
 std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<KeyframeId, Eigen::Isometry3d>& before,
                                                  const std::map<KeyframeId, Eigen::Isometry3d>& corrected,

@@ -68,6 +68,9 @@ struct Keyframe {
   std::vector<std::pair<KeyframeId, int>> neighbours;  // the same, strongest first (ties: older first)
   KeyframeId parent = -1;                              // spanning tree (-1 for a component's root)
   std::set<KeyframeId> children;
+  // Keyframes a loop closure joined this one to (both ways): every later essential graph keeps the loop's
+  // constraint, and neither keyframe is culled (ORB-SLAM's loop edges).
+  std::set<KeyframeId> loop_edges;
 
   Eigen::Isometry3d T_cam_world() const { return T_world_cam.inverse(); }
   Eigen::Vector3d center() const { return T_world_cam.translation(); }
@@ -105,8 +108,11 @@ class Map {
   // counters, erases `old_point` and remembers the replacement for resolve().
   void replace_map_point(MapPointId old_point, MapPointId by);
   // Culls a keyframe: unlinks its points, re-parents its children, updates its neighbours' weights.
-  // A component's root (no parent) is never culled; returns false then.
+  // A component's root (no parent) and a keyframe with loop edges are never culled; returns false then.
   bool erase_keyframe(KeyframeId kf);
+  // Records a loop closure between two keyframes (Keyframe::loop_edges, both ways); false when either is
+  // unknown or they are the same.
+  bool add_loop_edge(KeyframeId a, KeyframeId b);
 
   // Recomputes kf's covisibility weights from its points and mirrors them into the neighbours; sets
   // the parent (the strongest older neighbour) the first time there is one. Links below min_weight are kept only for the

@@ -32,7 +32,8 @@
 
 namespace fleetslam::slam {
 
-inline constexpr std::uint32_t kMapFormatVersion = 1;
+// Version 2 adds each keyframe's loop edges (files of version 1 are refused with an InputError).
+inline constexpr std::uint32_t kMapFormatVersion = 2;
 
 // A map as a file holds it: the map and the fingerprint of the vocabulary its BoW vectors came from.
 struct SavedMap {
