@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -481,6 +482,18 @@ BaResult bundle_adjust(const core::PinholeCamera& camera, double bf, const BaPro
   result.final_rms_px = reprojection_rms_px(k, problem, outlier, state);
   result.ok = solved;
   return result;
+}
+
+std::vector<int> reprojection_inliers(const core::PinholeCamera& camera, const std::vector<PoseObservation>& observations,
+                                      const Eigen::Isometry3d& T_cam_world, double chi2) {
+  std::vector<int> inliers;
+  for (std::size_t k = 0; k < observations.size(); ++k) {
+    const std::optional<Eigen::Vector2d> uv = camera.project(T_cam_world * observations[k].p_world);
+    if (uv && (*uv - observations[k].obs.uv).squaredNorm() * observations[k].obs.inv_sigma2 <= chi2) {
+      inliers.push_back(static_cast<int>(k));
+    }
+  }
+  return inliers;
 }
 
 }  // namespace fleetslam::slam

@@ -171,6 +171,7 @@ TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
     result.reason = std::to_string(result.features) + " features (" + std::to_string(with_depth) +
                     " with depth); a map needs " + std::to_string(config_.init_min_features) + " (" +
                     std::to_string(config_.init_min_depth_features) + ")";
+    frame.T_world_cam.reset();  // an earlier stage of this call (relocalisation, gyro) may have left one
     return result;
   }
   // A new component starts where the camera was last believed to be, so the trajectory stays continuous

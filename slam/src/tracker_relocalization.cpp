@@ -105,6 +105,18 @@ int Tracker::relocalize_with(Working& w, const Keyframe& candidate, const Featur
     for (int k = 0; k < 3; ++k) T_cw.linear()(r, k) = R(r, k);
     T_cw.translation()(r) = tvec.at<double>(r);
   }
+  // cv::solvePnPRansac gates every match by one pixel threshold; ORB-SLAM's PnP solver gates each by its
+  // level's sigma (chi-square, 2 dof). The inliers are taken again so at the RANSAC pose: 4 px dropped
+  // correct matches of coarse levels (at level 7, sigma 3.6 px, half of them) and kept loose ones at level 0.
+  std::vector<PoseObservation> pairs(matches.size());
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    const auto b = static_cast<std::size_t>(matches[k].b);
+    pairs[k].p_world = Eigen::Vector3d(object[k].x, object[k].y, object[k].z);
+    pairs[k].obs.uv = f.uv[b];
+    pairs[k].obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[b])];
+  }
+  inliers = reprojection_inliers(f.camera, pairs, T_cw, OptimizerConfig{}.chi2_mono);
+  if (static_cast<int>(inliers.size()) < c.min_ransac_inliers) return 0;
   for (int k : inliers) {
     const Match& m = matches[static_cast<std::size_t>(k)];
     f.map_points[static_cast<std::size_t>(m.b)] = candidate.frame.map_points[static_cast<std::size_t>(m.a)];

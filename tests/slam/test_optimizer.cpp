@@ -544,5 +544,41 @@ TEST(BundleAdjust, IsDeterministic) {
   EXPECT_EQ(a.outlier, b.outlier);
 }
 
+// The PnP inlier gate scales with each feature's level: coarse-level matches whose error is sigma-sized
+// pass (a fixed 4 px gate would drop about 40 % of them at level 6), and a 3 px error at level 0 fails.
+TEST(ReprojectionInliers, TheGateFollowsEachLevelsSigma) {
+  const core::PinholeCamera& camera = test_camera();
+  const Eigen::Isometry3d T_cw = pose_from(Eigen::Vector3d(0.1, -0.05, 0.2), Eigen::Vector3d(0.02, 0.01, -0.03));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pixel(20.0, 600.0);
+  std::uniform_real_distribution<double> depth(1.0, 6.0);
+  const double sigma6 = std::pow(1.2, 6);  // 2.99 px
+  std::normal_distribution<double> noise(0.0, sigma6);
+  std::vector<PoseObservation> observations;
+  int fixed_gate = 0;
+  for (int k = 0; k < 400; ++k) {
+    const Eigen::Vector2d uv_true(pixel(rng), pixel(rng) * 0.75);
+    const Eigen::Vector3d p_cam = *camera.unproject(uv_true, depth(rng));
+    PoseObservation o;
+    o.p_world = T_cw.inverse() * p_cam;
+    o.obs.uv = uv_true + Eigen::Vector2d(noise(rng), noise(rng));
+    o.obs.inv_sigma2 = 1.0 / (sigma6 * sigma6);
+    fixed_gate += (o.obs.uv - uv_true).norm() <= 4.0 ? 1 : 0;
+    observations.push_back(o);
+  }
+  const std::vector<int> inliers = reprojection_inliers(camera, observations, T_cw, 5.991);
+  EXPECT_GT(static_cast<int>(inliers.size()), 400 * 90 / 100);  // 95 % expected
+  EXPECT_LT(fixed_gate, 400 * 70 / 100);                         // 59 % expected
+  // Level 0 (sigma 1 px): 3 px off fails (9 > 5.991), 2 px passes; behind the camera fails.
+  PoseObservation off;
+  off.p_world = T_cw.inverse() * Eigen::Vector3d(0.1, 0.2, 2.0);
+  off.obs.uv = *camera.project(Eigen::Vector3d(0.1, 0.2, 2.0)) + Eigen::Vector2d(3.0, 0.0);
+  PoseObservation near = off;
+  near.obs.uv.x() -= 1.0;
+  PoseObservation behind = near;
+  behind.p_world = T_cw.inverse() * Eigen::Vector3d(0.1, 0.2, -2.0);
+  EXPECT_EQ(reprojection_inliers(camera, {off, near, behind}, T_cw, 5.991), std::vector<int>{1});
+}
+
 }  // namespace
 }  // namespace fleetslam::slam

@@ -74,6 +74,12 @@ struct PoseResult {
 PoseResult optimize_pose(const core::PinholeCamera& camera, double bf, const std::vector<PoseObservation>& observations,
                          const Eigen::Isometry3d& T_cam_world_initial, const OptimizerConfig& config);
 
+// Indices of the observations whose image point (obs.uv; u_right is not used) lies within the chi-square
+// gate chi2 (2 dof) of its projection at T_cam_world, in its level's sigma (obs.inv_sigma2): ORB-SLAM's
+// PnP inlier test. Points not in front of the camera fail.
+std::vector<int> reprojection_inliers(const core::PinholeCamera& camera, const std::vector<PoseObservation>& observations,
+                                      const Eigen::Isometry3d& T_cam_world, double chi2);
+
 // ---- local bundle adjustment -------------------------------------------------------------------------
 
 struct BaKeyframe {

@@ -53,7 +53,7 @@ struct RelocalizationConfig {
   int max_candidates = 5;            // best BoW candidates tried
   int min_bow_matches = 15;
   int ransac_iterations = 300;
-  double ransac_reprojection_px = 4.0;
+  double ransac_reprojection_px = 4.0;  // RANSAC's hypothesis test; the inliers are then gated by level sigma
   int min_ransac_inliers = 12;
   int min_inliers = 50;              // after optimisation and guided search
   double new_map_after_s = 1.0;      // relocalisation failing this long (frames with features) -> new map
