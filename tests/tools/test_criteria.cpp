@@ -105,6 +105,18 @@ TEST(Criteria, UnmeasuredValuesFailWithANote) {
   EXPECT_EQ(judge(c, m)["criteria"].size(), 1u);
   EXPECT_TRUE(judge(c, nlohmann::json::object())["passed"].get<bool>());
   EXPECT_TRUE(judge(c, nlohmann::json("odd"))["passed"].get<bool>());
+  // Fields of the wrong type are treated as absent, not thrown on: a robot named by a number is "?", one
+  // whose "planned" is not a boolean is not planned (b, planned, is judged).
+  m["robots"][0]["name"] = 7;
+  m["robots"][0]["planned"] = "yes";
+  m["robots"][1]["planned"] = true;
+  c = CriteriaConfig{};
+  c.goals_reached = true;
+  c.max_ate_m = 1.0;
+  const nlohmann::json odd = judge(c, m);
+  EXPECT_NE(find(odd, "ate_world_rmse_m", "?"), nullptr);
+  EXPECT_EQ(find(odd, "goals_reached_share", "?"), nullptr);
+  EXPECT_NE(find(odd, "goals_reached_share", "b"), nullptr);
 }
 
 }  // namespace

@@ -325,7 +325,9 @@ MachineInfo MachineInfo::probe() {
 
 std::string current_command_line() {
   std::ifstream in("/proc/self/cmdline", std::ios::binary);
-  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string all = text.str();
   std::string command;
   std::size_t start = 0;
   while (start < all.size()) {

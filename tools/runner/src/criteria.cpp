@@ -44,7 +44,9 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
   Verdict verdict;
   const nlohmann::json robots = metrics.contains("robots") && metrics["robots"].is_array() ? metrics["robots"] : nlohmann::json::array();
   for (const nlohmann::json& robot : robots) {
-    const std::string name = robot.value("name", std::string("?"));
+    const auto name_field = robot.find("name");
+    const std::string name =
+        name_field != robot.end() && name_field->is_string() ? name_field->get_ref<const std::string&>() : "?";
     if (c.max_ate_m >= 0.0) {
       verdict.add("ate_world_rmse_m", name, number_at(robot, {"ate_world_m", "rmse"}), c.max_ate_m, true,
                   robot.contains("ate_world_m") ? "" : "no estimated trajectory to judge");
@@ -57,7 +59,8 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
       verdict.add("lost_share", name, share, c.max_lost_share, true, share ? "" : "no frames");
     }
     if (c.no_collisions) verdict.add("collisions", name, number_at(robot, {"collisions"}), 0.0, true);
-    if (c.goals_reached && robot.value("planned", false)) {
+    const auto planned = robot.find("planned");
+    if (c.goals_reached && planned != robot.end() && planned->is_boolean() && *planned == true) {
       const std::optional<double> total = number_at(robot, {"goals_total"});
       const std::optional<double> reached = number_at(robot, {"goals_reached"});
       std::optional<double> share;
