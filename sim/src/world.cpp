@@ -317,6 +317,12 @@ World::World(ScenarioConfig scenario, core::Logger logger) : impl_(std::make_uni
       throw InputError(impl_->scenario.scene + ": robot " + config.name,
                        "camera rate exceeds the physics rate");
     }
+    // Sensors are sampled at physics steps: two IMU ticks in one step would stop the stream for good.
+    if (config.imu.enabled && config.imu.noise.rate_hz * impl_->scenario.physics_step_s > 1.0) {
+      throw InputError(impl_->scenario.scene + ": robot " + config.name,
+                       "IMU rate " + std::to_string(config.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
+                           std::to_string(1.0 / impl_->scenario.physics_step_s) + " Hz (physics_step_s)");
+    }
     impl_->robots.emplace_back(config);
     impl_->bind_robot(impl_->robots.back());
     if (config.camera.enabled) {

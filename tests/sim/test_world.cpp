@@ -424,6 +424,26 @@ TEST(World, SurfacePointsLieOnTheSceneAndExcludeRobots) {
   }
 }
 
+// Sensors are sampled at physics steps: an IMU faster than the physics would get two ticks in one step
+// (and then none at all), so it is refused, as a camera that fast is.
+TEST(World, AnImuFasterThanThePhysicsIsRefused) {
+  const fs::path dir = write_scene("imu_rate", kWallScene);
+  RobotConfig rig = still_rig("cam", PoseConfig{});
+  rig.imu.enabled = true;
+  rig.imu.noise.rate_hz = 200.0;
+  ScenarioConfig scenario = scenario_in(dir, {rig});
+  scenario.physics_step_s = 0.01;
+  try {
+    World world(scenario, nullptr);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("IMU rate"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cam"), std::string::npos) << e.what();
+  }
+  scenario.physics_step_s = 0.005;  // 200 Hz: one sample per step
+  EXPECT_NO_THROW(World(scenario, nullptr));
+}
+
 TEST(World, MissingOrMalformedSceneNamesTheFile) {
   const fs::path dir = write_scene("bad", kWallScene);
   std::ofstream(dir / "broken.xml") << "<mujoco><worldbody><geom type=\"box\" size=\"1\"";
