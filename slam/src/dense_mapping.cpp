@@ -45,7 +45,11 @@ DenseMapper::DenseMapper(const DenseMappingConfig& config, const FrameBuilder& b
   if (!(config_.min_depth_m < config_.max_depth_m)) {
     throw InputError("dense_mapping", "min_depth_m must be below max_depth_m");
   }
-  if (config_.stereo_block_size % 2 == 0) throw InputError("dense_mapping.stereo_block_size", "must be odd");
+  if (config_.stereo_block_size < 1 || config_.stereo_block_size % 2 == 0) {
+    throw InputError("dense_mapping.stereo_block_size", "must be odd and positive");
+  }
+  if (config_.pixel_stride < 1) throw InputError("dense_mapping.pixel_stride", "must be at least 1");
+  if (config_.stereo_disparities < 1) throw InputError("dense_mapping.stereo_disparities", "must be positive");
   config_.stereo_disparities = (config_.stereo_disparities + 15) / 16 * 16;
   // RGB-D depth is registered to the raw (distorted) colour image; stereo depth lives in the rectified
   // (or already rectified, distortion-free) left image, which is the front end's camera.
@@ -194,9 +198,10 @@ std::int64_t DenseMapper::voxel_key(const Eigen::Vector3f& p) const {
 
 std::size_t DenseMapper::add_keyframe(KeyframeId id, const Eigen::Isometry3d& T_world_cam,
                                       const core::PointCloud& cloud_cam) {
-  if (clouds_.count(id) > 0) return 0;
+  if (!added_.insert(id).second) return 0;
   back_projected_ += cloud_cam.size();
   core::PointCloud kept;
+  std::vector<std::int64_t>& voxels = voxels_[id];
   if (config_.voxel_size_m <= 0.0) {
     kept = cloud_cam;
   } else {
@@ -207,25 +212,33 @@ std::size_t DenseMapper::add_keyframe(KeyframeId id, const Eigen::Isometry3d& T_
     for (std::size_t i = 0; i < cloud_cam.size(); ++i) {
       const Eigen::Vector3f& p = cloud_cam.points[i];
       if (!p.allFinite()) continue;
-      if (!occupied_.insert(voxel_key(R * p + t)).second) continue;
+      const std::int64_t key = voxel_key(R * p + t);
+      if (!occupied_.insert(key).second) continue;
+      voxels.push_back(key);
       kept.push_back_from(cloud_cam, i);
     }
   }
   const std::size_t n = kept.size();
-  clouds_.emplace(id, std::move(kept));
+  clouds_[id].append(kept);  // after any points it inherited before its own came
   return n;
 }
 
 void DenseMapper::remove_keyframe(KeyframeId id, const std::optional<std::pair<KeyframeId, Eigen::Isometry3d>>& heir) {
+  added_.erase(id);
   auto it = clouds_.find(id);
   if (it == clouds_.end()) return;
   core::PointCloud cloud = std::move(it->second);
   clouds_.erase(it);
-  if (!heir) return;
-  auto target = clouds_.find(heir->first);
-  if (target == clouds_.end()) return;
+  std::vector<std::int64_t> voxels = std::move(voxels_[id]);
+  voxels_.erase(id);
+  if (!heir || heir->first == id) {
+    for (const std::int64_t key : voxels) occupied_.erase(key);
+    return;
+  }
   core::transform_in_place(cloud, heir->second);
-  target->second.append(cloud);
+  clouds_[heir->first].append(cloud);
+  std::vector<std::int64_t>& heir_voxels = voxels_[heir->first];
+  heir_voxels.insert(heir_voxels.end(), voxels.begin(), voxels.end());
 }
 
 const core::PointCloud* DenseMapper::keyframe_cloud_of(KeyframeId id) const {

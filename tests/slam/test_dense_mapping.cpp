@@ -178,6 +178,15 @@ TEST(DenseMapping, RejectsBadConfig) {
   DenseMappingConfig even_block;
   even_block.stereo_block_size = 4;
   EXPECT_THROW(DenseMapper(even_block, builder), InputError);
+  // Built in code, past the YAML limits: errors, not a division by zero or a huge allocation.
+  DenseMappingConfig negative_block;
+  negative_block.stereo_block_size = -3;
+  EXPECT_THROW(DenseMapper(negative_block, builder), InputError);
+  for (const int stride : {0, -1}) {
+    DenseMappingConfig bad_stride;
+    bad_stride.pixel_stride = stride;
+    EXPECT_THROW(DenseMapper(bad_stride, builder), InputError) << stride;
+  }
 }
 
 TEST(DenseMapping, RevisitedVoxelsAddNothing) {
@@ -240,6 +249,31 @@ TEST(DenseMapping, CloudFollowsKeyframePosesAndCulledPointsMoveToTheHeir) {
   mapper.remove_keyframe(0, std::nullopt);
   EXPECT_EQ(mapper.stats().points, 0u);
   mapper.remove_keyframe(42, std::nullopt);  // unknown: ignored
+}
+
+// An heir without a cloud of its own (a keyframe of a loaded map, or one the dense stage has not reached)
+// still takes a culled keyframe's points, and its own come on top; points dropped for want of an heir free
+// their voxels, so that a later view of the surface maps it again.
+TEST(DenseMapping, NoSurfaceIsLostWhenTheHeirHasNoCloudOrThereIsNoHeir) {
+  const core::SensorRig rig = test::synthetic_rgbd_rig();
+  const FrameBuilder builder(FrameBuilderConfig{}, rig);
+  DenseMapper mapper(config_with_stride(16), builder);
+  const core::PointCloud cloud = mapper.keyframe_cloud(flat_frame(rig, 2.0f));
+  const Eigen::Isometry3d here = Eigen::Isometry3d::Identity();
+  ASSERT_EQ(mapper.add_keyframe(1, here, cloud), cloud.size());
+  mapper.remove_keyframe(1, std::make_pair(KeyframeId{2}, here));  // 2 has no cloud yet
+  ASSERT_NE(mapper.keyframe_cloud_of(2), nullptr);
+  EXPECT_EQ(mapper.stats().points, cloud.size());
+  EXPECT_EQ(mapper.add_keyframe(3, here, cloud), 0u) << "the inherited points still hold their voxels";
+  Eigen::Isometry3d far = here;
+  far.translation().z() = 10.0;
+  EXPECT_EQ(mapper.add_keyframe(2, far, cloud), cloud.size()) << "the heir's own points come on top";
+  EXPECT_EQ(mapper.stats().points, 2 * cloud.size());
+
+  mapper.remove_keyframe(2, std::nullopt);  // no heir: its points (own and inherited) go, and their voxels
+  EXPECT_EQ(mapper.stats().points, 0u);
+  EXPECT_EQ(mapper.add_keyframe(4, here, cloud), cloud.size()) << "the surface maps again";
+  EXPECT_EQ(mapper.add_keyframe(5, far, cloud), cloud.size());
 }
 
 TEST(DenseMapping, StereoDepthLiesOnTheTrueWalls) {

@@ -22,6 +22,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -86,7 +87,9 @@ class DenseMapper {
   // Adding an id again replaces nothing and returns 0.
   std::size_t add_keyframe(KeyframeId id, const Eigen::Isometry3d& T_world_cam, const core::PointCloud& cloud_cam);
   // Hands a culled keyframe's points to `heir` (with T_heir_kf, the culled keyframe's pose in the
-  // heir's frame); without an heir they are dropped. Unknown ids are ignored.
+  // heir's frame), also when the heir has no cloud of its own yet (a keyframe of a loaded map, or one the
+  // dense stage has not reached: its own points still come); without an heir they are dropped and their
+  // voxels freed for later keyframes. Unknown ids are ignored.
   void remove_keyframe(KeyframeId id, const std::optional<std::pair<KeyframeId, Eigen::Isometry3d>>& heir);
 
   // Every keyframe's points in the world frame, keyframes in id order. `pose` gives a keyframe's current
@@ -113,7 +116,9 @@ class DenseMapper {
   int sample_cols_ = 0;
   int sample_rows_ = 0;
 
-  std::map<KeyframeId, core::PointCloud> clouds_;
+  std::map<KeyframeId, core::PointCloud> clouds_;  // own points and those inherited from culled keyframes
+  std::set<KeyframeId> added_;                      // keyframes whose own points were added
+  std::map<KeyframeId, std::vector<std::int64_t>> voxels_;  // the voxels each cloud's points took
   std::unordered_set<std::int64_t> occupied_;
   std::size_t back_projected_ = 0;
 };
