@@ -45,6 +45,19 @@ Map make_map(int keyframes, std::vector<MapPointId>& points) {
   return map;
 }
 
+// A solve that moves every free keyframe and every point of the problem by one known correction C.
+BaResult moved_by(const GlobalBaProblem& problem, const Eigen::Isometry3d& C) {
+  BaResult result;
+  result.ok = true;
+  for (const BaKeyframe& kf : problem.problem.keyframes) {
+    const Eigen::Isometry3d T_world_cam = kf.T_cam_world.inverse();
+    result.T_cam_world.push_back(kf.fixed ? kf.T_cam_world : (C * T_world_cam).inverse());
+  }
+  for (const Eigen::Vector3d& p : problem.problem.points_world) result.points_world.push_back(C * p);
+  result.outlier.assign(problem.problem.observations.size(), false);
+  return result;
+}
+
 bool near(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return a.isApprox(b, 1e-9); }
 
 TEST(GlobalBaApply, KeyframesAndPointsAddedDuringTheSolveFollowTheCorrection) {
@@ -66,16 +79,8 @@ TEST(GlobalBaApply, KeyframesAndPointsAddedDuringTheSolveFollowTheCorrection) {
   const Eigen::Isometry3d added_before = map.keyframe(added)->T_world_cam;
   const Eigen::Vector3d new_point_before = map.point(new_point)->position;
 
-  // A result that moves every free keyframe and point by one known correction.
   const Eigen::Isometry3d C = at(0.03, 0.02);
-  BaResult result;
-  result.ok = true;
-  for (std::size_t k = 0; k < problem->keyframe_ids.size(); ++k) {
-    const Eigen::Isometry3d T_world_cam = problem->problem.keyframes[k].T_cam_world.inverse();
-    result.T_cam_world.push_back(problem->problem.keyframes[k].fixed ? T_world_cam.inverse() : (C * T_world_cam).inverse());
-  }
-  for (const Eigen::Vector3d& p : problem->problem.points_world) result.points_world.push_back(C * p);
-  result.outlier.assign(problem->problem.observations.size(), false);
+  const BaResult result = moved_by(*problem, C);
 
   std::set<KeyframeId> moved;
   ASSERT_TRUE(closer.apply_global_ba(*problem, result, map, moved));
@@ -108,14 +113,7 @@ TEST(GlobalBaApply, APointCreatedOnASolvedKeyframeFollowsItWhateverTheCount) {
   const Eigen::Vector3d new_point_before = map.point(new_point)->position;
 
   const Eigen::Isometry3d C = at(0.04, -0.03);
-  BaResult result;
-  result.ok = true;
-  for (std::size_t k = 0; k < problem->keyframe_ids.size(); ++k) {
-    const Eigen::Isometry3d T_world_cam = problem->problem.keyframes[k].T_cam_world.inverse();
-    result.T_cam_world.push_back(problem->problem.keyframes[k].fixed ? T_world_cam.inverse() : (C * T_world_cam).inverse());
-  }
-  for (const Eigen::Vector3d& p : problem->problem.points_world) result.points_world.push_back(C * p);
-  result.outlier.assign(problem->problem.observations.size(), false);
+  const BaResult result = moved_by(*problem, C);
   std::set<KeyframeId> moved;
   ASSERT_TRUE(closer.apply_global_ba(*problem, result, map, moved));
   EXPECT_TRUE(map.point(new_point)->position.isApprox(C * new_point_before, 1e-9));

@@ -368,33 +368,49 @@ TEST(LocalMapping, TriangulatesAPointNearButNotAtTheEpipole) {
   expect_consistent(map);
 }
 
+// A map of one keyframe (60 points) and a frame with two features at uv0 and uv1, both with the
+// descriptor of the map point `id` (the second 2 bits off), the given depths and bf; finalize() derives
+// the right coordinates from depth.
+struct LookAlikes {
+  Map map;
+  MapPointId id = kNoMapPoint;
+  Frame frame;
+};
+
+LookAlikes look_alikes(const Eigen::Vector2d& uv0, const Eigen::Vector2d& uv1, double bf, std::vector<double> depth_m) {
+  LookAlikes out;
+  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
+  Frame first = make_frame(60, 1);
+  first.T_world_cam = at_x(0.0);
+  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, out.map, nullptr);
+  out.id = out.map.keyframe(k0)->frame.map_points[0];
+  const MapPoint& point = *out.map.point(out.id);
+  Frame& f = out.frame;
+  f.camera = first.camera;
+  f.pyramid = first.pyramid;
+  f.bf = bf;
+  f.descriptors = cv::Mat(2, 32, CV_8UC1);
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Vector2d& at = i == 0 ? uv0 : uv1;
+    f.keypoints.emplace_back(static_cast<float>(at.x()), static_cast<float>(at.y()), 31.0f, 0.0f, 0.0f, 0);
+    f.uv.push_back(at);
+    f.level.push_back(0);
+    std::copy(point.descriptor.begin(), point.descriptor.end(), f.descriptors.ptr<std::uint8_t>(i));
+  }
+  f.descriptors.at<std::uint8_t>(1, 0) ^= 0x3;
+  f.depth_m = std::move(depth_m);
+  f.finalize();
+  return out;
+}
+
 // A close point near the left edge has a negative (virtual) right coordinate, and depth must still agree:
 // of two features where it projects, the one whose depth disagrees loses to the one whose depth agrees,
 // though its descriptor is closer. finalize() derives the right coordinates from depth.
 TEST(ProjectionSearch, DepthMustAgreeForAPointWithANegativeRightCoordinate) {
-  Map map;
-  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
-  Frame first = make_frame(60, 1);
-  first.T_world_cam = at_x(0.0);
-  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
-  const MapPointId id = map.keyframe(k0)->frame.map_points[0];
-  const MapPoint& point = *map.point(id);
-
-  Frame f;
-  f.camera = first.camera;
-  f.pyramid = first.pyramid;
-  f.bf = 40.0;
   const Eigen::Vector2d uv(10.0, 200.0);
-  f.descriptors = cv::Mat(2, 32, CV_8UC1);
-  for (int i = 0; i < 2; ++i) {
-    f.keypoints.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()), 31.0f, 0.0f, 0.0f, 0);
-    f.uv.push_back(uv);
-    f.level.push_back(0);
-    std::copy(point.descriptor.begin(), point.descriptor.end(), f.descriptors.ptr<std::uint8_t>(i));
-  }
-  f.descriptors.at<std::uint8_t>(1, 0) ^= 0x3;  // feature 1: two bits off
-  f.depth_m = {2.0, 0.5};                      // feature 0 is 1.5 m behind the point
-  f.finalize();
+  LookAlikes scene = look_alikes(uv, uv, 40.0, {2.0, 0.5});  // feature 0 is 1.5 m behind the point
+  Frame& f = scene.frame;
+  const MapPointId id = scene.id;
   ASSERT_DOUBLE_EQ(f.u_right[1], 10.0 - 40.0 / 0.5);
 
   ProjectedPoint p;
@@ -403,7 +419,7 @@ TEST(ProjectionSearch, DepthMustAgreeForAPointWithANegativeRightCoordinate) {
   p.depth_m = 0.5;
   p.u_right = uv.x() - f.bf / p.depth_m;  // -70 px
   p.level = 0;
-  EXPECT_EQ(search_by_projection(f, {p}, map, ProjectionSearchConfig{}), 1);
+  EXPECT_EQ(search_by_projection(f, {p}, scene.map, ProjectionSearchConfig{}), 1);
   EXPECT_EQ(f.map_points[0], kNoMapPoint);
   EXPECT_EQ(f.map_points[1], id);
 }
@@ -411,29 +427,12 @@ TEST(ProjectionSearch, DepthMustAgreeForAPointWithANegativeRightCoordinate) {
 // A point the frame already holds (a seed match, as loop verification plants the RANSAC inliers before
 // its guided search) is not matched a second time to a look-alike feature beside it.
 TEST(ProjectionSearch, APointTheFrameHoldsIsNotMatchedAgain) {
-  Map map;
-  LocalMapper mapper(LocalMappingConfig{}, core::null_logger());
-  Frame first = make_frame(60, 1);
-  first.T_world_cam = at_x(0.0);
-  const KeyframeId k0 = mapper.insert_keyframe(first, 0, true, map, nullptr);
-  const MapPointId id = map.keyframe(k0)->frame.map_points[0];
-  const MapPoint& point = *map.point(id);
-
-  Frame f;
-  f.camera = first.camera;
-  f.pyramid = first.pyramid;
-  f.descriptors = cv::Mat(2, 32, CV_8UC1);
   const Eigen::Vector2d uv(300.0, 200.0);
-  for (int i = 0; i < 2; ++i) {  // the seeded feature and, 0.8 px away, a decoy 2 bits off
-    const Eigen::Vector2d at = uv + Eigen::Vector2d(0.8 * i, 0.0);
-    f.keypoints.emplace_back(static_cast<float>(at.x()), static_cast<float>(at.y()), 31.0f, 0.0f, 0.0f, 0);
-    f.uv.push_back(at);
-    f.level.push_back(0);
-    std::copy(point.descriptor.begin(), point.descriptor.end(), f.descriptors.ptr<std::uint8_t>(i));
-  }
-  f.descriptors.at<std::uint8_t>(1, 0) ^= 0x3;
-  f.depth_m = {-1.0, -1.0};
-  f.finalize();
+  // The seeded feature and, 0.8 px away, a decoy 2 bits off; no depth.
+  LookAlikes scene = look_alikes(uv, uv + Eigen::Vector2d(0.8, 0.0), 0.0, {-1.0, -1.0});
+  Frame& f = scene.frame;
+  const MapPointId id = scene.id;
+  const Map& map = scene.map;
   f.map_points[0] = id;
 
   ProjectedPoint p;
