@@ -78,8 +78,19 @@ void print_summary(const nlohmann::json& metrics, const fs::path& out) {
 
 void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger("run", global);
-  runner::RunScenarioConfig config = runner::load_run_scenario(o.scenario);
-  if (o.seed) config.world.seed = *o.seed;
+  // Checked here rather than by CLI11's PositiveNumber, which lets NaN through.
+  if (o.duration_s && !(*o.duration_s > 0.0 && *o.duration_s <= 1e6)) {
+    throw InputError("--duration", "must be in (0, 1e6] seconds");
+  }
+  // Below a millimetre the sampled surfaces of a room no longer fit in memory.
+  if (!(o.truth_spacing_m >= 1e-3 && o.truth_spacing_m <= 1.0)) {
+    throw InputError("--truth-spacing", "must be in [0.001, 1] m");
+  }
+  if (o.seed && (*o.seed < 0 || *o.seed > sim::ScenarioConfig::kMaxSeed)) {
+    throw InputError("--seed", "must be in [0, " + std::to_string(sim::ScenarioConfig::kMaxSeed) + "]");
+  }
+  // The seed goes in before the robots' seeds are derived from it.
+  runner::RunScenarioConfig config = runner::load_run_scenario(o.scenario, o.seed);
   if (o.duration_s) config.world.duration_s = *o.duration_s;
   config.agent = read_config_file<slam::AgentConfig>(o.agent_config, config.agent);
   config.central = read_config_file<central::ServerConfig>(o.central_config, config.central);
@@ -124,8 +135,8 @@ void add_run_command(CLI::App& app, const GlobalOptions& global) {
              "judge it against ground truth and its pass criteria (exit 1 when one fails)");
   cmd->add_option("scenario", options->scenario, "Scenario YAML file")->required();
   cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
-  cmd->add_option("--seed", options->seed, "Seed (default: the scenario's)");
-  cmd->add_option("--duration", options->duration_s, "Seconds to simulate (default: the scenario's)")->check(CLI::PositiveNumber);
+  cmd->add_option("--seed", options->seed, "Seed of the simulation's noise (default: the scenario's); robots without a seed of their own derive theirs from it");
+  cmd->add_option("--duration", options->duration_s, "Seconds to simulate, in (0, 1e6] (default: the scenario's)");
   cmd->add_option("--threads", options->threads,
                   "1: deterministic (everything inline, bit-identical repeats); more: agents map on worker threads and "
                   "the robots' agents track a camera tick's frames concurrently")
@@ -139,8 +150,7 @@ void add_run_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--prior-error", options->prior_error,
                   "Error added to the initial-pose prior of every robot but the first: dx dy dz (m) yaw (deg)")
       ->expected(4);
-  cmd->add_option("--truth-spacing", options->truth_spacing_m, "Spacing of the true-surface samples maps are judged against (m)")
-      ->check(CLI::PositiveNumber)
+  cmd->add_option("--truth-spacing", options->truth_spacing_m, "Spacing of the true-surface samples maps are judged against, in [0.001, 1] m")
       ->capture_default_str();
   cmd->callback([options, &global] { run_scenario(*options, global); });
 }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <set>
+#include <string>
 
 #include "fleetslam/core/error.hpp"
 
@@ -57,6 +58,9 @@ ScenarioConfig load_scenario(const std::filesystem::path& file) {
 void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& file) {
   scenario.base_dir = file.parent_path();
   if (scenario.robots.empty()) throw InputError(file.string() + ":robots", "a scenario needs at least one robot");
+  if (scenario.seed < 0 || scenario.seed > ScenarioConfig::kMaxSeed) {
+    throw InputError(file.string() + ":seed", "must be in [0, " + std::to_string(ScenarioConfig::kMaxSeed) + "]");
+  }
   std::set<std::string> names;
   for (std::size_t i = 0; i < scenario.robots.size(); ++i) {
     RobotConfig& robot = scenario.robots[i];

@@ -18,6 +18,7 @@
 
 #include "fleetslam/core/point_cloud.hpp"
 #include "fleetslam/core/trajectory.hpp"
+#include "fleetslam/runner/run_config.hpp"
 
 namespace fleetslam {
 namespace {
@@ -106,6 +107,29 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   EXPECT_NE(read_text(out / "report.html").find("FAIL"), std::string::npos);
 }
 
+// --seed replaces the scenario's seed before the robots derive theirs from it: the simulation's noise
+// follows it, and a robot with a seed of its own keeps that.
+TEST(RunCli, SeedReachesTheRobots) {
+  const runner::RunScenarioConfig file = runner::load_run_scenario(kOffice);
+  const runner::RunScenarioConfig seeded = runner::load_run_scenario(kOffice, 7);
+  ASSERT_EQ(seeded.world.robots.size(), 2u);
+  EXPECT_EQ(seeded.world.seed, 7);
+  EXPECT_EQ(seeded.world.robots[0].seed, 7001);
+  EXPECT_EQ(seeded.world.robots[1].seed, 7002);
+  EXPECT_NE(file.world.robots[0].seed, seeded.world.robots[0].seed);
+  const fs::path dir = test_dir();
+  std::string scenario = read_text(kOffice);
+  const std::string scene_key = "scene: ../../scenes/office/office.xml";
+  scenario.replace(scenario.find(scene_key), scene_key.size(), "scene: '" + kOfficeScene.string() + "'");
+  const std::string bravo = "- name: bravo\n";
+  ASSERT_NE(scenario.find(bravo), std::string::npos);
+  scenario.insert(scenario.find(bravo) + bravo.size(), "    seed: 55\n");
+  std::ofstream(dir / "own_seed.yaml") << scenario;
+  const runner::RunScenarioConfig own = runner::load_run_scenario(dir / "own_seed.yaml", 7);
+  EXPECT_EQ(own.world.robots[0].seed, 7001);
+  EXPECT_EQ(own.world.robots[1].seed, 55);
+}
+
 TEST(RunCli, BadInputEndsWithOneClearLine) {
   const fs::path dir = test_dir();
   RunResult r = run("run '" + (dir / "absent.yaml").string() + "' --out '" + (dir / "run").string() + "'");
@@ -127,6 +151,14 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
   r = run("run '" + (dir / "criteria.yaml").string() + "' --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("max_ate"), std::string::npos) << r.output;
+  // Options out of range name the option (NaN passed CLI11's PositiveNumber; a tiny truth spacing ran out
+  // of memory; a negative seed would give the robots negative seeds).
+  for (const char* option : {"--duration nan", "--duration -1", "--truth-spacing 1e-9", "--truth-spacing nan", "--seed -1"}) {
+    r = run("run '" + kOffice.string() + "' " + option + " --out '" + (dir / "run").string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.output;
+    const std::string name = std::string(option).substr(0, std::string(option).find(' '));
+    EXPECT_NE(r.output.find(name), std::string::npos) << option << ": " << r.output;
+  }
   std::ofstream(dir / "bad.fsvoc", std::ios::binary) << "not a vocabulary";
   r = run("-q run '" + kOffice.string() + "' --vocabulary '" + (dir / "bad.fsvoc").string() + "' --out '" +
           (dir / "run").string() + "'");

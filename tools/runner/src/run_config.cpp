@@ -6,8 +6,11 @@
 
 namespace fleetslam::runner {
 
-RunScenarioConfig load_run_scenario(const std::filesystem::path& file) {
+RunScenarioConfig load_run_scenario(const std::filesystem::path& file, std::optional<std::int64_t> seed) {
   RunScenarioConfig config = core::load_config<RunScenarioConfig>(file);
+  if (seed) {
+    config.world.seed = *seed;
+  }
   sim::validate_scenario(config.world, file);
   if (config.mission.kind != MissionKind::kScripted) {
     bool ground = false;

@@ -137,6 +137,10 @@ struct RobotConfig {
 };
 
 struct ScenarioConfig {
+  // Robot seeds are derived as seed * 1000 + index + 1 (validate_scenario): the largest seed keeps that
+  // within std::int64_t.
+  static constexpr std::int64_t kMaxSeed = 1'000'000'000'000'000;
+
   std::string scene;                 // MJCF file, relative to the scenario file's folder
   double duration_s = 10.0;
   double physics_step_s = 0.001;
@@ -150,7 +154,7 @@ struct ScenarioConfig {
     v.required("scene", scene);
     v("duration_s", duration_s, core::Limits<double>{0.0, 1e6});
     v("physics_step_s", physics_step_s, core::Limits<double>{1e-5, 0.1});
-    v("seed", seed, core::Limits<std::int64_t>{0, std::numeric_limits<std::int64_t>::max()});
+    v("seed", seed, core::Limits<std::int64_t>{0, kMaxSeed});
     v("robots", robots);
   }
 

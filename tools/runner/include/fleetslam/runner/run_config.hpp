@@ -10,7 +10,9 @@
 //
 // Read with core::ConfigReader: unknown keys and bad values are errors naming file:key.
 
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 
 #include "fleetslam/central/server.hpp"
 #include "fleetslam/core/config.hpp"
@@ -164,6 +166,8 @@ struct RunScenarioConfig {
 };
 
 // Reads a run scenario and checks its world part like sim::load_scenario. Throws InputError naming file:key.
-RunScenarioConfig load_run_scenario(const std::filesystem::path& file);
+// seed (>= 0) replaces the file's world seed before the robots without a seed of their own derive theirs
+// from it (sim::validate_scenario), so that it reaches the simulation.
+RunScenarioConfig load_run_scenario(const std::filesystem::path& file, std::optional<std::int64_t> seed = std::nullopt);
 
 }  // namespace fleetslam::runner
