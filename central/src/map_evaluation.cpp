@@ -24,7 +24,11 @@ MapAccuracy evaluate_map(const core::PointCloud& map_world, const std::vector<Ei
   }
   out.map_points = map.size();
   out.truth_points = truth.size();
-  if (truth.empty() || map.empty()) return out;
+  if (truth.empty()) return out;
+  if (map.empty()) {
+    out.completeness = 0.0;
+    return out;
+  }
 
   const float max_d = static_cast<float>(config.max_distance_m);
   const KdTree truth_tree(truth);

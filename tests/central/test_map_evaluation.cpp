@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "fleetslam/central/map_evaluation.hpp"
@@ -61,8 +62,14 @@ TEST(MapEvaluation, OutliersAndEmptyInputs) {
   EXPECT_EQ(result.map_points, 100u);
   EXPECT_EQ(result.far_points, 1u);
   EXPECT_NEAR(result.mean_m, 0.5 / 100.0, 1e-4) << "the outlier counts as max_distance_m";
-  EXPECT_EQ(evaluate_map(core::PointCloud{}, truth).map_points, 0u);
-  EXPECT_EQ(evaluate_map(map, {}).completeness, 0.0);
+  // An empty map has no error to measure (not an error of 0, which would pass any accuracy bound) and
+  // covers nothing; without truth nothing is measured.
+  const MapAccuracy empty = evaluate_map(core::PointCloud{}, truth);
+  EXPECT_EQ(empty.map_points, 0u);
+  EXPECT_TRUE(std::isnan(empty.mean_m) && std::isnan(empty.median_m) && std::isnan(empty.p95_m));
+  EXPECT_EQ(empty.completeness, 0.0);
+  const MapAccuracy no_truth = evaluate_map(map, {});
+  EXPECT_TRUE(std::isnan(no_truth.mean_m) && std::isnan(no_truth.p95_m) && std::isnan(no_truth.completeness));
 }
 
 }  // namespace

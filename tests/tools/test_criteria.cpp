@@ -14,9 +14,9 @@ namespace {
 
 nlohmann::json metrics() {
   return {{"robots",
-           {{{"name", "a"}, {"frames", 100}, {"lost", 2}, {"collisions", 0}, {"planned", true}, {"goals_total", 4},
+           {{{"name", "a"}, {"frames", 100}, {"tracked", 98}, {"lost", 2}, {"collisions", 0}, {"planned", true}, {"goals_total", 4},
              {"goals_reached", 4}, {"ate_world_m", {{"rmse", 0.01}}}},
-            {{"name", "b"}, {"frames", 100}, {"lost", 10}, {"collisions", 1}, {"planned", true}, {"goals_total", 4},
+            {{"name", "b"}, {"frames", 100}, {"tracked", 90}, {"lost", 10}, {"collisions", 1}, {"planned", true}, {"goals_total", 4},
              {"goals_reached", 3}, {"ate_world_m", {{"rmse", 0.03}}}}}},
           {"merged_map_accuracy", {{"mean_m", 0.012}, {"p95_m", 0.04}, {"completeness", 0.4}}},
           {"coverage", {{"final", 0.7}}},
@@ -75,6 +75,46 @@ TEST(Criteria, EachCriterionJudgesItsValue) {
   c = CriteriaConfig{};
   c.max_ate_m = 0.03;
   EXPECT_TRUE(judge(c, metrics())["passed"].get<bool>());
+}
+
+// A frame without a pose counts whatever the reason: a robot that never started a map (no frame lost,
+// none tracked) has lost every frame.
+TEST(Criteria, LostShareCountsEveryFrameWithoutAPose) {
+  nlohmann::json m = metrics();
+  m["robots"][0]["tracked"] = 0;
+  m["robots"][0]["lost"] = 0;
+  m["robots"][1]["tracked"] = 96;
+  CriteriaConfig c;
+  c.max_lost_share = 0.05;
+  const nlohmann::json v = judge(c, m);
+  const nlohmann::json* a = find(v, "lost_share", "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_FALSE((*a)["passed"].get<bool>());
+  EXPECT_DOUBLE_EQ((*a)["value"].get<double>(), 1.0);
+  const nlohmann::json* b = find(v, "lost_share", "b");
+  ASSERT_NE(b, nullptr);
+  EXPECT_TRUE((*b)["passed"].get<bool>());  // 4 of 100, though 10 were counted lost before
+  EXPECT_DOUBLE_EQ((*b)["value"].get<double>(), 0.04);
+  // More tracked than frames is no measurement.
+  m["robots"][1]["tracked"] = 101;
+  EXPECT_TRUE((*find(judge(c, m), "lost_share", "b"))["value"].is_null());
+}
+
+// An empty merged map has no error statistics (null in metrics.json): the accuracy bounds fail and say why.
+TEST(Criteria, AnEmptyMergedMapFailsTheAccuracyBounds) {
+  nlohmann::json m = metrics();
+  m["merged_map_accuracy"] = {{"map_points", 0}, {"mean_m", nullptr}, {"p95_m", nullptr}, {"completeness", 0.0}};
+  CriteriaConfig c;
+  c.max_map_accuracy_mean_m = 0.05;
+  c.max_map_accuracy_p95_m = 0.1;
+  const nlohmann::json v = judge(c, m);
+  EXPECT_FALSE(v["passed"].get<bool>());
+  for (const char* name : {"map_accuracy_mean_m", "map_accuracy_p95_m"}) {
+    const nlohmann::json* j = find(v, name, "");
+    ASSERT_NE(j, nullptr) << name;
+    EXPECT_FALSE((*j)["passed"].get<bool>()) << name;
+    EXPECT_EQ((*j)["note"], "the merged map is empty") << name;
+  }
 }
 
 TEST(Criteria, UnmeasuredValuesFailWithANote) {

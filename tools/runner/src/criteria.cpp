@@ -52,10 +52,11 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
                   robot.contains("ate_world_m") ? "" : "no estimated trajectory to judge");
     }
     if (c.max_lost_share >= 0.0) {
+      // Every frame without a pose counts: lost ones, and those before a map was started or rejected.
       const std::optional<double> frames = number_at(robot, {"frames"});
-      const std::optional<double> lost = number_at(robot, {"lost"});
+      const std::optional<double> tracked = number_at(robot, {"tracked"});
       std::optional<double> share;
-      if (frames && lost && *frames > 0) share = *lost / *frames;
+      if (frames && tracked && *frames > 0 && *tracked >= 0.0 && *tracked <= *frames) share = (*frames - *tracked) / *frames;
       verdict.add("lost_share", name, share, c.max_lost_share, true, share ? "" : "no frames");
     }
     if (c.no_collisions) verdict.add("collisions", name, number_at(robot, {"collisions"}), 0.0, true);
@@ -70,11 +71,15 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
       verdict.add("goals_reached_share", name, share, 1.0, false, note);
     }
   }
+  const std::optional<double> map_points = number_at(metrics, {"merged_map_accuracy", "map_points"});
+  const std::string map_note = map_points && *map_points == 0.0 ? "the merged map is empty" : "";
   if (c.max_map_accuracy_mean_m >= 0.0) {
-    verdict.add("map_accuracy_mean_m", "", number_at(metrics, {"merged_map_accuracy", "mean_m"}), c.max_map_accuracy_mean_m, true);
+    verdict.add("map_accuracy_mean_m", "", number_at(metrics, {"merged_map_accuracy", "mean_m"}), c.max_map_accuracy_mean_m,
+                true, map_note);
   }
   if (c.max_map_accuracy_p95_m >= 0.0) {
-    verdict.add("map_accuracy_p95_m", "", number_at(metrics, {"merged_map_accuracy", "p95_m"}), c.max_map_accuracy_p95_m, true);
+    verdict.add("map_accuracy_p95_m", "", number_at(metrics, {"merged_map_accuracy", "p95_m"}), c.max_map_accuracy_p95_m,
+                true, map_note);
   }
   if (c.min_map_completeness >= 0.0) {
     verdict.add("map_completeness", "", number_at(metrics, {"merged_map_accuracy", "completeness"}), c.min_map_completeness, false);

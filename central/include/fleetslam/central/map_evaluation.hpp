@@ -9,6 +9,7 @@
 // another robot) count as max_distance_m in the statistics and are counted separately.
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -31,14 +32,17 @@ struct MapEvaluationConfig {
   }
 };
 
+// What cannot be measured is NaN (written as null in JSON, failed by pass criteria): the error statistics
+// of an empty map or of a map without truth, the completeness without truth. An empty map against truth
+// is complete to 0.
 struct MapAccuracy {
   std::size_t map_points = 0;
   std::size_t truth_points = 0;
   std::size_t far_points = 0;   // beyond max_distance_m
-  double mean_m = 0.0;
-  double median_m = 0.0;
-  double p95_m = 0.0;
-  double completeness = 0.0;    // in [0, 1]
+  double mean_m = std::numeric_limits<double>::quiet_NaN();
+  double median_m = std::numeric_limits<double>::quiet_NaN();
+  double p95_m = std::numeric_limits<double>::quiet_NaN();
+  double completeness = std::numeric_limits<double>::quiet_NaN();  // in [0, 1]
 };
 
 MapAccuracy evaluate_map(const core::PointCloud& map_world, const std::vector<Eigen::Vector3f>& truth_world,
