@@ -379,13 +379,20 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
   }
   RunResult run = run_agent(agent, *source, logger);
+  // A map that cannot be saved costs the run nothing else: the other outputs are written, then the error
+  // is raised.
   std::optional<double> save_s;
+  std::optional<InputError> save_error;
   if (!o.save_map.empty()) {
     const auto save_start = std::chrono::steady_clock::now();
-    agent.save_map(o.save_map);
-    save_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - save_start).count();
-    logger->info("map saved to {} ({} keyframes, {} points) in {:.3f} s", o.save_map, run.map.keyframes,
-                 run.map.points, *save_s);
+    try {
+      agent.save_map(o.save_map);
+      save_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - save_start).count();
+      logger->info("map saved to {} ({} keyframes, {} points) in {:.3f} s", o.save_map, run.map.keyframes,
+                   run.map.points, *save_s);
+    } catch (const InputError& e) {
+      save_error = e;
+    }
   }
   core::write_trajectory(out / "trajectory.txt", run.estimate, core::TrajectoryFormat::kTum);
   core::write_trajectory(out / "keyframes.txt", run.keyframes, core::TrajectoryFormat::kTum);
@@ -414,6 +421,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     const auto bytes = fs::file_size(o.save_map, size_ec);
     metrics["saved_map"] = {{"file", o.save_map}, {"bytes", size_ec ? 0 : bytes}, {"save_s", *save_s}};
   }
+  if (save_error) metrics["saved_map"] = {{"file", o.save_map}, {"error", save_error->what()}};
   std::optional<core::AteResult> ate;
   if (!run.per_frame_groundtruth.empty()) {
     core::write_trajectory(out / "groundtruth.txt", run.per_frame_groundtruth, core::TrajectoryFormat::kTum);
@@ -437,6 +445,10 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     print_summary(run, source->unreadable_frames(), ate, out);
     if (!o.load_map.empty()) std::printf("loaded map:   %s in %.3f s (localization only)\n", o.load_map.c_str(), load_s);
     if (save_s) std::printf("saved map:    %s in %.3f s\n", o.save_map.c_str(), *save_s);
+  }
+  if (save_error) {
+    throw InputError(save_error->where(),
+                     save_error->why() + "; the map was not saved, the other outputs are in " + out.string());
   }
   if (run.stopped_at) {
     throw InputError(run.stopped_at->where,
