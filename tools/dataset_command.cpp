@@ -105,7 +105,8 @@ nlohmann::json info_json(const core::FrameSource& source) {
 std::string camera_text(const char* name, const nlohmann::json& c) {
   std::ostringstream out;
   out << "  " << name << ": " << c["width"] << "x" << c["height"] << "  fx " << c["fx"] << " fy " << c["fy"]
-      << " cx " << c["cx"] << " cy " << c["cy"] << "  radtan " << c["distortion"].dump() << "\n";
+      << " cx " << c["cx"] << " cy " << c["cy"] << "  " << c["distortion_model"].get<std::string>() << " "
+      << c["distortion"].dump() << "\n";
   return out.str();
 }
 

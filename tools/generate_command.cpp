@@ -224,8 +224,10 @@ void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
   check_robots(options, scenario, selected, format);
 
   // Every robot of the scenario runs (they share the world), only the selected ones are written.
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
   sim::World world(scenario, logger);
-  fs::create_directories(out);
   write_effective_scenario(out / kScenarioFile, scenario);
   std::vector<RobotOutput> outputs = open_outputs(out, world, selected, format, logger);
   run_world(world, outputs, format, logger);

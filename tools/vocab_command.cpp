@@ -159,15 +159,20 @@ void run_train(const VocabOptions& o, const GlobalOptions& global) {
   config.depth_levels = o.levels;
   config.seed = o.seed;
   const slam::VocabularyTrainer trainer(config, logger);  // checks the limits before the long work
+  // So is where the vocabulary goes: a folder, or a folder that cannot be made, would fail only after it.
+  const fs::path out(o.out);
+  std::error_code ec;
+  if (fs::is_directory(out, ec)) throw InputError(o.out, "--out is a folder; give a file name");
+  if (out.has_parent_path()) {
+    fs::create_directories(out.parent_path(), ec);
+    if (ec) throw InputError(o.out, "cannot create its folder: " + ec.message());
+  }
   const auto start = std::chrono::steady_clock::now();
   const std::vector<cv::Mat> descriptors = DescriptorCollector(o, logger).collect();
   const double extract_s = seconds_since(start);
   const auto train_start = std::chrono::steady_clock::now();
   const slam::Vocabulary vocabulary = trainer.train(descriptors);
   const double train_s = seconds_since(train_start);
-  const fs::path out(o.out);
-  std::error_code ec;
-  if (out.has_parent_path()) fs::create_directories(out.parent_path(), ec);
   vocabulary.save(out);
   char line[256];
   std::snprintf(line, sizeof line, "extraction %.1f s, training %.1f s", extract_s, train_s);

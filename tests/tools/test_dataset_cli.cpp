@@ -166,6 +166,20 @@ TEST_F(DatasetCli, ConvertEurocToEurocAndTumToEuroc) {
   EXPECT_EQ(j["frames_with_groundtruth"], 19);  // the excerpt's ground truth starts at frame 21
   EXPECT_NEAR(j["rig"]["cam1"]["fx"].get<double>(), 457.587, 1e-12);
   EXPECT_EQ(j["skipped_rows"].size(), 0u);
+  // The text names each camera's distortion model (a fisheye cam0 was once printed as radtan).
+  Result text = run("dataset info " + quoted(out));
+  EXPECT_NE(text.out.find("radial-tangential [-0.28340811"), std::string::npos) << text.out;
+  const fs::path cam0 = out / "mav0" / "cam0" / "sensor.yaml";
+  std::string sensor = test::read_text(cam0);
+  const std::size_t model = sensor.find("distortion_model:");
+  ASSERT_NE(model, std::string::npos) << sensor;
+  sensor = sensor.substr(0, model) +
+           "distortion_model: equidistant\ndistortion_coefficients: [0.0034823894022493434, 0.0007150348452162257, "
+           "-0.0020532361418706202, 0.00020293673591811182]\n";
+  std::ofstream(cam0) << sensor;
+  text = run("dataset info " + quoted(out));
+  EXPECT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("equidistant [0.0034823894022493434"), std::string::npos) << text.out;
 
   result = run("dataset convert " + quoted(kTum) + " --to euroc --out " + quoted(dir_ / "mono") + " --stride 20");
   ASSERT_EQ(result.exit_code, 0) << result.err;

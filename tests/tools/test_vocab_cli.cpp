@@ -139,6 +139,10 @@ TEST_F(VocabCli, BadInputEndsWithOneErrorLine) {
                "vocabulary.branching: must be in [2, 64], got 1");
   expect_error(run("vocab train --dataset " + quoted(dir_ / "images") + " --out " + quoted(dir_ / "v.fsvoc")),
                (dir_ / "images").string());
+  // Where the vocabulary goes is checked before the images are read, not after the training.
+  expect_error(train(dir_ / "images"), "--out is a folder");
+  std::ofstream(dir_ / "plain") << "a file, not a folder";
+  expect_error(train(dir_ / "plain" / "v.fsvoc"), "cannot create its folder");
   std::ofstream(dir_ / "images" / "broken.png") << "not a png";
   expect_error(train(dir_ / "v.fsvoc"), "broken.png: cannot decode the image");
   EXPECT_FALSE(fs::exists(dir_ / "v.fsvoc"));
