@@ -126,8 +126,13 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vecto
     max_xy.array() += config_.margin_m;
     min_xy = (min_xy / res).array().floor().matrix() * res;  // cell edges on multiples of the resolution
   }
-  const double cells_x = std::ceil((max_xy.x() - min_xy.x()) / res);
-  const double cells_y = std::ceil((max_xy.y() - min_xy.y()) / res);
+  // Fixed bounds end at max ([min, max)); bounds built to cover the cloud hold its farthest points too:
+  // with no margin a point at max lies on the far edge, in one more cell (ceil dropped that wall row).
+  const auto cells_along = [&](double span_m) {
+    return config_.bounds_xy_m.empty() ? std::floor(span_m / res) + 1.0 : std::ceil(span_m / res);
+  };
+  const double cells_x = cells_along(max_xy.x() - min_xy.x());
+  const double cells_y = cells_along(max_xy.y() - min_xy.y());
   if (cells_x * cells_y > static_cast<double>(config_.max_cells)) {
     throw InputError("occupancy_grid.max_cells",
                      "the map's bounds need " + std::to_string(static_cast<long long>(cells_x)) + " x " +
@@ -390,7 +395,11 @@ bool OccupancyGrid::traversable(const CellIndex& cell, UnknownCells unknown) con
   const CellState s = cells_[index(cell)];
   if (s == CellState::kOccupied) return false;
   if (s == CellState::kUnknown && unknown == UnknownCells::kOccupied) return false;
-  return clearance_m(cell, unknown) > config_.robot_radius_m;
+  // In cells (header): grid distances are square roots of integers, at least 5e-4 cells apart up to 1000
+  // cells, and the float clearance is within 1e-4 of its distance there.
+  constexpr double kTieCells = 1e-4;
+  const double limit_cells = config_.robot_radius_m / config_.resolution_m;
+  return clearance_m(cell, unknown) / config_.resolution_m > limit_cells + kTieCells;
 }
 
 bool OccupancyGrid::traversable(const Eigen::Vector2d& p_world, UnknownCells unknown) const {

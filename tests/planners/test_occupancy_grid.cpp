@@ -291,6 +291,16 @@ TEST(OccupancyGrid, AutomaticBoundsCoverTheCloudWithMargin) {
   EXPECT_GE(hi.x(), 3.05 + 0.5 - 1e-9);
   EXPECT_GE(hi.y(), 2.05 + 0.5 - 1e-9);
   EXPECT_EQ(state_at(grid, 1.5, 1.0), CellState::kFree);
+  // Without a margin the farthest points lie on the far edge: they are in the grid, not dropped.
+  OccupancyGridConfig tight = grid_config();
+  tight.margin_m = 0.0;
+  OccupancyGrid no_margin(tight);
+  core::PointCloud wall;
+  for (int i = 0; i <= 20; ++i) wall.push_back(Eigen::Vector3f(1.0f, 0.05f * static_cast<float>(i), 0.5f));
+  wall.push_back(Eigen::Vector3f(0.0f, 0.0f, 0.5f));
+  no_margin.update(wall);
+  EXPECT_EQ(no_margin.stats().outside_points, 0u);
+  EXPECT_EQ(state_at(no_margin, 1.0, 1.0), CellState::kOccupied);
 }
 
 TEST(OccupancyGrid, InflationMatchesBruteForceClearance) {
@@ -326,6 +336,30 @@ TEST(OccupancyGrid, InflationMatchesBruteForceClearance) {
   EXPECT_FALSE(grid.traversable(Eigen::Vector2d(-0.6, 2.0), UnknownCells::kOccupied));
   EXPECT_TRUE(grid.traversable(Eigen::Vector2d(-0.6, 2.0), UnknownCells::kFree));
   EXPECT_FALSE(grid.traversable(Eigen::Vector2d(10.0, 2.0), UnknownCells::kFree));  // outside the grid
+}
+
+// The inflation's edge: traversable when the centre-to-centre clearance exceeds the radius, and a cell
+// exactly at the limit is blocked (the float clearance 0.2f exceeded 0.2, so 4 cells at 5 cm passed a
+// 0.2 m limit; 3 cells at 10 cm a 0.3 m one).
+TEST(OccupancyGrid, InflationBlocksACellExactlyAtTheRadius) {
+  for (const double radius_m : {0.15, 0.175, 0.2, 0.25, 0.3}) {
+    for (const double resolution_m : {0.05, 0.1}) {
+      // A wall filling x < 1 (cells up to [0.95, 1) at 5 cm), free beyond.
+      const OccupancyGrid grid = test::make_grid(4.0, 2.0, [](const Eigen::Vector2d& c) { return c.x() < 1.0; },
+                                                 radius_m, resolution_m);
+      const int y = grid.height() / 2;
+      for (int x = 0; x < grid.width() - 1; ++x) {
+        const Eigen::Vector2d c = grid.center_of({x, y});
+        // The nearest wall cells' centres: half a cell inside the wall's face at x = 1 and the east border
+        // cell's at 4 - resolution.
+        const double to_wall_m = c.x() - (1.0 - 0.5 * resolution_m);
+        const double to_border_m = (4.0 - 0.5 * resolution_m) - c.x();
+        const bool expected = to_wall_m > radius_m + 1e-9 && to_border_m > radius_m + 1e-9;
+        EXPECT_EQ(grid.traversable(CellIndex{x, y}, UnknownCells::kOccupied), expected)
+            << "radius " << radius_m << " resolution " << resolution_m << " cell centre x " << c.x();
+      }
+    }
+  }
 }
 
 TEST(OccupancyGrid, FrontiersOfAHalfExploredRoom) {

@@ -22,7 +22,12 @@
 // nearest occupied cell (exact Euclidean distance transform, Felzenszwalb & Huttenlocher 2012), and a
 // second clearance to the nearest occupied-or-unknown cell. A cell is traversable for the robot's centre
 // when it is free (or unknown, where unknown cells count as free) and its clearance exceeds
-// robot_radius_m. Cells outside the grid are never traversable.
+// robot_radius_m (centre to centre, as ROS costmaps inflate). A clearance exactly at the limit is
+// blocked: compared in cells, with a tolerance far below the gap between two grid distances, not against
+// the float clearance (0.2f > 0.2 let 4 cells of 5 cm pass a 0.2 m radius). An obstacle fills its cell,
+// whose face is half a cell (a diagonal corner up to 0.71 cells) nearer than its centre: give
+// robot_radius_m that margin over the robot's body (the shipped scenarios' 0.28 m over a 0.2 m body).
+// Cells outside the grid are never traversable.
 //
 // Cell (x, y) covers [origin + x * res, origin + (x + 1) * res) along world x (likewise y); cells are
 // stored row-major, index = y * width + x. update() rebuilds everything from scratch (the fused map
