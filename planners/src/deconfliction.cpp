@@ -7,6 +7,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "fleetslam/core/error.hpp"
+
 namespace fleetslam::planners {
 namespace {
 
@@ -56,7 +58,19 @@ Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_
 }
 
 Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger)
-    : config_(config), planner_(planner_config, logger), logger_(logger ? std::move(logger) : core::null_logger()) {}
+    : config_(config), planner_(planner_config, logger), logger_(logger ? std::move(logger) : core::null_logger()) {
+  // The YAML limits guard configs read from files; one built in code is checked here (a zero speed or time
+  // step never ended the conflict scan).
+  const auto in = [](double value, double lo, double hi) { return value >= lo && value <= hi; };
+  if (!in(config_.speed_m_per_s, 1e-3, 100.0)) throw InputError("deconfliction.speed_m_per_s", "must be in [0.001, 100]");
+  if (!in(config_.time_step_s, 1e-3, 10.0)) throw InputError("deconfliction.time_step_s", "must be in [0.001, 10]");
+  if (!in(config_.time_margin_s, 0.0, 100.0)) throw InputError("deconfliction.time_margin_s", "must be in [0, 100]");
+  if (!in(config_.separation_m, 0.0, 100.0)) throw InputError("deconfliction.separation_m", "must be in [0, 100]");
+  if (!in(config_.block_window_s, 0.0, 1000.0)) throw InputError("deconfliction.block_window_s", "must be in [0, 1000]");
+  if (config_.max_replans < 0 || config_.max_replans > 1000) {
+    throw InputError("deconfliction.max_replans", "must be in [0, 1000]");
+  }
+}
 
 DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vector<RobotQuery>& queries,
                                        const std::vector<CommittedPath>& committed) const {

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
+#include "fleetslam/core/error.hpp"
 #include "fleetslam/planners/deconfliction.hpp"
 #include "synthetic_maps.hpp"
 
@@ -121,6 +123,32 @@ TEST(Deconflicter, TimingAlongAPath) {
   EXPECT_TRUE(position_at(path, 0.5, 100.0, {9, 9}).isApprox(Eigen::Vector2d(1.0, 2.0)));
   EXPECT_TRUE(position_at(path, 0.5, -1.0, {9, 9}).isApprox(Eigen::Vector2d(0.0, 0.0)));
   EXPECT_TRUE(position_at({}, 0.5, 1.0, {9, 9}).isApprox(Eigen::Vector2d(9.0, 9.0)));
+}
+
+// A config built in code is checked like one read from YAML: a zero speed or time step never ended the
+// conflict scan, and a NaN one skipped it.
+TEST(Deconflicter, BadConfigIsAnInputErrorNamingTheKey) {
+  const auto error_of = [](const DeconflictionConfig& c) -> std::string {
+    try {
+      Deconflicter d(c, PathPlannerConfig{});
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error_of(DeconflictionConfig{}), "");
+  DeconflictionConfig c;
+  c.speed_m_per_s = 0.0;
+  EXPECT_NE(error_of(c).find("deconfliction.speed_m_per_s"), std::string::npos);
+  c = DeconflictionConfig{};
+  c.time_step_s = 0.0;
+  EXPECT_NE(error_of(c).find("deconfliction.time_step_s"), std::string::npos);
+  c = DeconflictionConfig{};
+  c.time_margin_s = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(error_of(c).find("deconfliction.time_margin_s"), std::string::npos);
+  c = DeconflictionConfig{};
+  c.max_replans = -1;
+  EXPECT_NE(error_of(c).find("deconfliction.max_replans"), std::string::npos);
 }
 
 }  // namespace

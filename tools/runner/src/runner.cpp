@@ -9,6 +9,7 @@
 #include <exception>
 #include <fstream>
 #include <future>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -254,7 +255,20 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     for (const sim::WaypointConfig& w : rc.waypoints) mr.waypoints_world.emplace_back(w.x, w.y);
     mission_robots.push_back(std::move(mr));
   }
-  MissionPlanner mission(config_.mission, config_.planner, mission_robots, logger);
+  // The deconfliction times every path at one speed: no faster than the slowest planned robot drives, or
+  // its schedule would run ahead of that robot and check the robots' separation at the wrong places.
+  PlanningConfig planning = config_.planner;
+  double slowest_mps = std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const double max_speed_mps = world.robot_config(r).controller.max_speed_mps;
+    if (robots[r].ground && max_speed_mps > 0.0) slowest_mps = std::min(slowest_mps, max_speed_mps);
+  }
+  if (config_.mission.kind != MissionKind::kScripted && slowest_mps < planning.deconfliction.speed_m_per_s) {
+    logger->info("deconfliction timed at {:.3f} m/s, the slowest robot's controller.max_speed_mps (planner.deconfliction."
+                 "speed_m_per_s {:.3f} is faster)", slowest_mps, planning.deconfliction.speed_m_per_s);
+    planning.deconfliction.speed_m_per_s = slowest_mps;
+  }
+  MissionPlanner mission(config_.mission, planning, mission_robots, logger);
   if (mission.planned()) {
     for (std::size_t r = 0; r < robots.size(); ++r) {
       if (robots[r].ground) world.set_path(r, {});  // they wait for the central unit's first plan
