@@ -67,6 +67,17 @@ std::string gl_error_text(GLenum error) {
 struct Renderer::Impl {
   OSMesaContext gl = nullptr;
   std::vector<unsigned char> gl_buffer;  // OSMesa's window buffer (unused: MuJoCo renders offscreen)
+  int buffer_width = 0;
+  int buffer_height = 0;
+
+  // The GL context is per thread and per renderer: another renderer (a second World) or another thread
+  // may have made its own current since, and MuJoCo's buffers and textures live in this one.
+  void make_current() {
+    if (OSMesaGetCurrentContext() == gl) return;
+    if (!OSMesaMakeCurrent(gl, gl_buffer.data(), GL_UNSIGNED_BYTE, buffer_width, buffer_height)) {
+      throw Error("OSMesa: cannot make the off-screen GL context current");
+    }
+  }
   mjvScene scene{};
   mjrContext context{};
   mjvOption option{};
@@ -81,6 +92,8 @@ Renderer::Renderer(const mjModel* model, int max_width, int max_height) : impl_(
   impl_->gl = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (impl_->gl == nullptr) throw Error("OSMesa: cannot create an off-screen GL context");
   impl_->gl_buffer.resize(static_cast<std::size_t>(max_width) * static_cast<std::size_t>(max_height) * 4);
+  impl_->buffer_width = max_width;
+  impl_->buffer_height = max_height;
   if (!OSMesaMakeCurrent(impl_->gl, impl_->gl_buffer.data(), GL_UNSIGNED_BYTE, max_width, max_height)) {
     OSMesaDestroyContext(impl_->gl);
     throw Error("OSMesa: cannot make the off-screen GL context current");
@@ -104,6 +117,10 @@ Renderer::Renderer(const mjModel* model, int max_width, int max_height) : impl_(
 }
 
 Renderer::~Renderer() {
+  // MuJoCo frees its GL objects in the current context: this renderer's.
+  if (OSMesaGetCurrentContext() != impl_->gl) {
+    OSMesaMakeCurrent(impl_->gl, impl_->gl_buffer.data(), GL_UNSIGNED_BYTE, impl_->buffer_width, impl_->buffer_height);
+  }
   mjr_freeContext(&impl_->context);
   mjv_freeScene(&impl_->scene);
   OSMesaDestroyContext(impl_->gl);
@@ -111,6 +128,7 @@ Renderer::~Renderer() {
 
 void Renderer::render(const mjModel* model, mjData* data, int camera_id, int width, int height,
                       const RenderOptions& options, cv::Mat* bgr, cv::Mat* depth_m) {
+  impl_->make_current();
   mjvCamera camera;
   mjv_defaultCamera(&camera);
   camera.type = mjCAMERA_FIXED;

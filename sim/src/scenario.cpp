@@ -4,7 +4,10 @@
 #include <set>
 #include <string>
 
+#include <Eigen/Core>
+
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/time.hpp"
 
 namespace fleetslam::sim {
 namespace {
@@ -18,12 +21,59 @@ void check_waypoints(const std::filesystem::path& file, std::size_t index, const
   if (robot.waypoints.size() < 2) {
     throw InputError(robot_key(file, index, "waypoints"), "a free_rig needs at least 2 timed waypoints");
   }
+  // In nanoseconds, as the trajectory takes them: 0 and 1e-10 s are one knot time.
   for (std::size_t k = 1; k < robot.waypoints.size(); ++k) {
-    if (!(robot.waypoints[k].t_s > robot.waypoints[k - 1].t_s)) {
+    if (!(core::seconds_to_ns(robot.waypoints[k].t_s) > core::seconds_to_ns(robot.waypoints[k - 1].t_s))) {
       throw InputError(robot_key(file, index, "waypoints[" + std::to_string(k) + "].t_s"),
                        "waypoint times must increase");
     }
   }
+}
+
+// What the World's parts would refuse later without naming the file and key.
+void check_sensors(const std::filesystem::path& file, std::size_t index, const RobotConfig& robot, double physics_step_s) {
+  // Sensors are sampled at physics steps: two ticks in one step would stop a stream for good.
+  if (robot.camera.enabled && robot.camera.rate_hz * physics_step_s > 1.0) {
+    throw InputError(robot_key(file, index, "camera.rate_hz"),
+                     std::to_string(robot.camera.rate_hz) + " Hz exceeds the physics rate " +
+                         std::to_string(1.0 / physics_step_s) + " Hz (physics_step_s)");
+  }
+  if (robot.imu.enabled && robot.imu.noise.rate_hz * physics_step_s > 1.0) {
+    throw InputError(robot_key(file, index, "imu.rate_hz"),
+                     std::to_string(robot.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
+                         std::to_string(1.0 / physics_step_s) + " Hz (physics_step_s)");
+  }
+  const DepthNoiseConfig& depth = robot.camera.depth_noise;
+  if (!(depth.min_depth_m < depth.max_depth_m)) {
+    throw InputError(robot_key(file, index, "camera.depth_noise.max_depth_m"),
+                     "must exceed min_depth_m (" + std::to_string(depth.min_depth_m) + ")");
+  }
+  if (robot.imu.initial_gyro_bias_radps.size() != 3) {
+    throw InputError(robot_key(file, index, "imu.initial_gyro_bias_radps"), "needs 3 entries (x, y, z)");
+  }
+  if (robot.imu.initial_accel_bias_mps2.size() != 3) {
+    throw InputError(robot_key(file, index, "imu.initial_accel_bias_mps2"), "needs 3 entries (x, y, z)");
+  }
+}
+
+// Robot names become MJCF names (an '&' broke the scene's XML) and folder names.
+void check_name(const std::filesystem::path& file, std::size_t index, const std::string& name) {
+  for (const char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+    if (!ok) {
+      throw InputError(robot_key(file, index, "name"),
+                       "robot name '" + name + "' may hold only letters, digits, '_' and '-'");
+    }
+  }
+}
+
+// Where a robot starts: a free rig at its first waypoint (its initial_pose is not used).
+Eigen::Vector3d start_position(const RobotConfig& robot) {
+  if (robot.type == RobotType::kFreeRig && !robot.waypoints.empty()) {
+    const WaypointConfig& w = robot.waypoints.front();
+    return {w.x, w.y, w.z};
+  }
+  return {robot.initial_pose.x, robot.initial_pose.y, robot.initial_pose.z};
 }
 
 void check_start_overlap(const std::filesystem::path& file, const ScenarioConfig& scenario) {
@@ -31,8 +81,9 @@ void check_start_overlap(const std::filesystem::path& file, const ScenarioConfig
     for (std::size_t j = i + 1; j < scenario.robots.size(); ++j) {
       const auto& a = scenario.robots[i];
       const auto& b = scenario.robots[j];
-      const double distance = std::hypot(a.initial_pose.x - b.initial_pose.x, a.initial_pose.y - b.initial_pose.y,
-                                         a.initial_pose.z - b.initial_pose.z);
+      const Eigen::Vector3d pa = start_position(a);
+      const Eigen::Vector3d pb = start_position(b);
+      const double distance = (pa - pb).norm();
       if (distance < a.radius_m + b.radius_m) {
         throw InputError(robot_key(file, j, "initial_pose"),
                          "robot '" + b.name + "' starts overlapping robot '" + a.name + "' (" +
@@ -65,10 +116,12 @@ void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& fi
   for (std::size_t i = 0; i < scenario.robots.size(); ++i) {
     RobotConfig& robot = scenario.robots[i];
     if (robot.name.empty()) throw InputError(robot_key(file, i, "name"), "robot name is empty");
+    check_name(file, i, robot.name);
     if (!names.insert(robot.name).second) {
       throw InputError(robot_key(file, i, "name"), "duplicate robot name '" + robot.name + "'");
     }
     check_waypoints(file, i, robot);
+    check_sensors(file, i, robot, scenario.physics_step_s);
     if (robot.seed < 0) robot.seed = scenario.seed * 1000 + static_cast<std::int64_t>(i) + 1;
   }
   check_start_overlap(file, scenario);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace fleetslam::sim::detail {
@@ -153,11 +154,25 @@ std::vector<Eigen::Vector3f> sample_static_surfaces(const mjModel* m, const mjDa
     const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
     switch (m->geom_type[g]) {
       case mjGEOM_PLANE: {
-        // Size 0 means infinite: clip to half the diagonal of the other geometry's bounds.
-        const double fallback = 0.5 * (hi - lo).head<2>().norm();
-        const double sx = s.x() > 0.0 ? s.x() : fallback;
-        const double sy = s.y() > 0.0 ? s.y() : fallback;
-        sample_rectangle(frame, Eigen::Vector3d::Zero(), sx * ex, sy * ey, spacing_m, &points);
+        // Size 0 means infinite: clipped to the other geometry's bounds, as seen in the plane's frame (the
+        // extent of the bounds box's corners along the plane's axes), not centred on the plane's origin.
+        Eigen::Vector2d local_lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+        Eigen::Vector2d local_hi = -local_lo;
+        for (int corner = 0; corner < 8; ++corner) {
+          const Eigen::Vector3d c((corner & 1) != 0 ? hi.x() : lo.x(), (corner & 2) != 0 ? hi.y() : lo.y(),
+                                  (corner & 4) != 0 ? hi.z() : lo.z());
+          const Eigen::Vector2d q = (frame.R.transpose() * (c - frame.p)).head<2>();
+          local_lo = local_lo.cwiseMin(q);
+          local_hi = local_hi.cwiseMax(q);
+        }
+        const bool infinite_x = !(s.x() > 0.0);
+        const bool infinite_y = !(s.y() > 0.0);
+        const double cx = infinite_x ? 0.5 * (local_lo.x() + local_hi.x()) : 0.0;
+        const double cy = infinite_y ? 0.5 * (local_lo.y() + local_hi.y()) : 0.0;
+        const double sx = infinite_x ? 0.5 * (local_hi.x() - local_lo.x()) : s.x();
+        const double sy = infinite_y ? 0.5 * (local_hi.y() - local_lo.y()) : s.y();
+        if (!(sx > 0.0 && sy > 0.0)) break;  // no other geometry to clip to
+        sample_rectangle(frame, Eigen::Vector3d(cx, cy, 0.0), sx * ex, sy * ey, spacing_m, &points);
         break;
       }
       case mjGEOM_BOX:

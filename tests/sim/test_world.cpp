@@ -337,6 +337,45 @@ TEST(World, RepeatRunsAreByteIdenticalWithNoiseOn) {
   }
 }
 
+// Two worlds side by side (each with its own GL context) render what each renders alone, stepped in turns
+// and with the second one built last (its context current) and destroyed first (no context current: the
+// first world's frames after that were the last image rendered, again and again).
+TEST(World, TwoWorldsStepInTurnsAsEachAlone) {
+  const fs::path wall = write_scene("turns_wall", kWallScene);
+  const fs::path near = write_scene("turns_near", std::string(kWallScene) +
+                                                      "    <geom type=\"box\" pos=\"1.2 0 1.25\" size=\"0.2 0.6 0.6\"/>\n");
+  const ScenarioConfig a_config = scenario_in(wall, {moving_rig()}, 0.3);  // moving: no two frames alike
+  const ScenarioConfig b_config = scenario_in(near, {still_rig("cam", PoseConfig{0.15, 0.3, 1.25, 0, 0, 10})}, 0.2);
+  const auto a_alone = run_all(a_config);
+  const auto b_alone = run_all(b_config);
+  ASSERT_GE(a_alone.size(), 5u);
+  std::vector<core::SensorFrame> a_frames;
+  {
+    World a(a_config, nullptr);
+    {
+      World b(b_config, nullptr);
+      std::size_t k = 0;
+      for (auto fa = a.step(); !fa.empty(); fa = a.step(), ++k) {
+        for (auto& f : fa) a_frames.push_back(std::move(f));
+        const auto fb = b.step();
+        ASSERT_EQ(fb.size(), 1u);
+        ASSERT_LT(k, b_alone.size());
+        EXPECT_TRUE(same_bytes(fb[0].image, b_alone[k].image)) << "b, frame " << k;
+        EXPECT_TRUE(same_bytes(fb[0].depth_m, b_alone[k].depth_m)) << "b, frame " << k;
+        if (k == 1) break;  // b goes away while a renders on
+      }
+    }
+    for (auto fa = a.step(); !fa.empty(); fa = a.step()) {
+      for (auto& f : fa) a_frames.push_back(std::move(f));
+    }
+  }
+  ASSERT_EQ(a_frames.size(), a_alone.size());
+  for (std::size_t i = 0; i < a_frames.size(); ++i) {
+    EXPECT_TRUE(same_bytes(a_frames[i].image, a_alone[i].image)) << "a, frame " << i;
+    EXPECT_TRUE(same_bytes(a_frames[i].depth_m, a_alone[i].depth_m)) << "a, frame " << i;
+  }
+}
+
 TEST(World, DiffDriveRobotFollowsItsPathAndStopsAtWalls) {
   const fs::path dir = write_scene("drive", kWallScene);
   RobotConfig rover;
@@ -424,6 +463,31 @@ TEST(World, SurfacePointsLieOnTheSceneAndExcludeRobots) {
   }
 }
 
+// An infinite plane (size 0) is sampled over the rest of the scene's extent, wherever that lies: it was
+// a square centred on the plane's origin, so a room far from the origin had no floor samples under it.
+TEST(World, AnInfinitePlaneIsSampledUnderTheScene) {
+  const fs::path dir = write_scene("infinite_plane",
+                                   "    <geom type=\"plane\" size=\"0 0 0.1\" rgba=\"1 1 1 1\"/>\n"
+                                   "    <geom type=\"box\" pos=\"20 10 0.5\" size=\"2 2 0.5\" rgba=\"1 1 1 1\"/>\n");
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.initial_pose = PoseConfig{17, 10, 0, 0, 0, 0};
+  rover.camera.enabled = false;
+  World world(scenario_in(dir, {rover}), nullptr);
+  const auto points = world.surface_points(0.05);
+  std::size_t floor = 0;
+  bool under_the_box = false;
+  for (const auto& p : points) {
+    if (std::abs(p.z()) > 1e-4f) continue;
+    ++floor;
+    ASSERT_GT(p.x(), 15.0) << p.transpose();
+    ASSERT_GT(p.y(), 6.0) << p.transpose();
+    under_the_box = under_the_box || (p.head<2>() - Eigen::Vector2f(20.0f, 10.0f)).norm() < 0.1f;
+  }
+  EXPECT_GT(floor, 5000u);
+  EXPECT_TRUE(under_the_box);
+}
+
 // Sensors are sampled at physics steps: an IMU faster than the physics would get two ticks in one step
 // (and then none at all), so it is refused, as a camera that fast is.
 TEST(World, AnImuFasterThanThePhysicsIsRefused) {
@@ -504,6 +568,35 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
   EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, waypoints: [{t_s: 1}]}\n")
                 .find("at least 2 timed waypoints"),
             std::string::npos);
+  // What the World's parts refused later, as internal errors or naming the scene, names file:key here.
+  const std::string a = "scene: scene.xml\nrobots:\n  - {name: a, ";
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, waypoints: [{t_s: 0}, {t_s: 1e-10}]}\n")
+                .find("robots[0].waypoints[1].t_s: waypoint times must increase"),
+            std::string::npos);
+  EXPECT_NE(error_of(a + "camera: {depth_noise: {max_depth_m: 0.2}}}\n").find("robots[0].camera.depth_noise.max_depth_m"),
+            std::string::npos);
+  EXPECT_NE(error_of(a + "imu: {initial_gyro_bias_radps: [0.1]}}\n").find("robots[0].imu.initial_gyro_bias_radps"),
+            std::string::npos);
+  EXPECT_NE(error_of(a + "imu: {initial_accel_bias_mps2: [0, 0, 0, 1]}}\n").find("robots[0].imu.initial_accel_bias_mps2"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nphysics_step_s: 0.05\nrobots:\n  - {name: a, camera: {rate_hz: 30}}\n")
+                .find("robots[0].camera.rate_hz"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nphysics_step_s: 0.01\nrobots:\n  - {name: a, imu: {rate_hz: 200}}\n")
+                .find("robots[0].imu.rate_hz"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: R&D}\n").find("robots[0].name: robot name 'R&D'"),
+            std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nseed: 1000000000000001\nrobots:\n  - {name: a}\n").find("seed"), std::string::npos);
+  // A free rig starts at its first waypoint, not at its (unused) initial pose.
+  const std::string rig = "  - {name: r, type: free_rig, waypoints: [{t_s: 0, x: X}, {t_s: 1, x: 4}]}\n";
+  const auto with_rig_at = [&](const std::string& x) {
+    std::string text = "scene: scene.xml\nrobots:\n  - {name: a}\n" + rig;
+    text.replace(text.find('X'), 1, x);
+    return text;
+  };
+  EXPECT_EQ(error_of(with_rig_at("3")), "no error");
+  EXPECT_NE(error_of(with_rig_at("0.1")).find("robot 'r' starts overlapping robot 'a'"), std::string::npos);
 }
 
 }  // namespace
