@@ -1,6 +1,7 @@
 // fleetslam eval: ATE and RPE of an estimated trajectory against ground truth, as figures on stdout,
 // metrics.json, the aligned estimate (TUM) and a picture (SVG) in the output folder.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -208,6 +209,13 @@ void run_eval(const EvalOptions& o, const GlobalOptions& global) {
   const TrajectoryFile gt = read_input(o.gt_path, s.gt_read);
   const TrajectoryFile est = read_input(o.est_path, s.est_read);
   const bool indexed = by_index(o, gt, est);
+  // Pairing by index takes the first min(n, m) poses of each: with counts that differ, say so (a partial run
+  // pairs correctly only when both files start at the same frame).
+  if (indexed && gt.trajectory.size() != est.trajectory.size()) {
+    std::cerr << "fleetslam: warning: pairing by index: " << o.gt_path << " has " << gt.trajectory.size() << " poses, "
+              << o.est_path << " " << est.trajectory.size() << "; only the first "
+              << std::min(gt.trajectory.size(), est.trajectory.size()) << " of each are paired\n";
+  }
   const auto pairs = indexed ? associate_by_index(gt.trajectory, est.trajectory)
                              : associate_by_time(gt.trajectory, est.trajectory, s.association);
   const AteResult ate = compute_ate(gt.trajectory, est.trajectory, pairs, s.align);

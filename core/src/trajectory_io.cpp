@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <string_view>
 #include <system_error>
 
@@ -34,13 +35,30 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
+// A file's whole text, read once: the format detection, the unit check and the parser all read it, and a
+// named pipe (eval --est <(...)) can be read only once.
+struct FileText {
+  std::string file;
+  std::string text;
+};
+
+FileText read_file_text(const fs::path& path) {
+  FileText out{path.string(), {}};
+  if (fs::is_directory(path)) throw InputError(out.file, "is a folder, not a trajectory file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(out.file, "cannot open the file");
+  std::array<char, 1 << 16> buffer{};
+  while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
+    out.text.append(buffer.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) throw InputError(out.file, "read error");
+  return out;
+}
+
 // Reads lines one by one, skipping blank lines and '#' comments (kept as the header).
 class DataLineReader {
  public:
-  explicit DataLineReader(const fs::path& path) : file_(path.string()), in_(path, std::ios::binary) {
-    if (fs::is_directory(path)) throw InputError(file_, "is a folder, not a trajectory file");
-    if (!in_) throw InputError(file_, "cannot open the file");
-  }
+  explicit DataLineReader(const FileText& file) : file_(file.file), in_(file.text) {}
 
   bool next(Line& line) {
     std::string text;
@@ -67,7 +85,7 @@ class DataLineReader {
 
  private:
   std::string file_;
-  std::ifstream in_;
+  std::istringstream in_;
   std::size_t number_ = 0;
   std::string header_;
 };
@@ -247,8 +265,10 @@ std::optional<TrajectoryFormat> trajectory_format_from_string(const std::string&
   return std::nullopt;
 }
 
-TrajectoryFormat detect_trajectory_format(const fs::path& path) {
-  DataLineReader reader(path);
+namespace {
+
+TrajectoryFormat detect_format(const FileText& file) {
+  DataLineReader reader(file);
   Line line;
   if (!reader.next(line)) throw InputError(reader.file(), "no poses in the file (empty or only comments)");
   const std::string where = at_line(reader.file(), line.number);
@@ -274,8 +294,8 @@ TrajectoryFormat detect_trajectory_format(const fs::path& path) {
 
 // Whether a TUM file's stamps are nanoseconds as a whole: all whole numbers (a fraction of zeros allowed)
 // with a median step of at least kNanosecondStepSeconds. Lines it cannot read are left to the parser.
-bool tum_stamps_in_nanoseconds(const fs::path& path) {
-  DataLineReader reader(path);
+bool tum_stamps_in_nanoseconds(const FileText& file) {
+  DataLineReader reader(file);
   Line line;
   std::vector<double> stamps;
   while (reader.next(line)) {
@@ -298,11 +318,16 @@ bool tum_stamps_in_nanoseconds(const fs::path& path) {
   return steps[steps.size() / 2] >= kNanosecondStepSeconds;
 }
 
+}  // namespace
+
+TrajectoryFormat detect_trajectory_format(const fs::path& path) { return detect_format(read_file_text(path)); }
+
 TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOptions& options) {
   TrajectoryFile out;
-  out.format = options.format ? *options.format : detect_trajectory_format(path);
-  const bool tum_nanoseconds = out.format == TrajectoryFormat::kTum && tum_stamps_in_nanoseconds(path);
-  DataLineReader reader(path);
+  const FileText file = read_file_text(path);
+  out.format = options.format ? *options.format : detect_format(file);
+  const bool tum_nanoseconds = out.format == TrajectoryFormat::kTum && tum_stamps_in_nanoseconds(file);
+  DataLineReader reader(file);
   Line line;
   TimeNs kitti_index = 0;
   while (reader.next(line)) {

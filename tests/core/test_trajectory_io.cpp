@@ -4,6 +4,9 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
+
+#include <sys/stat.h>
 
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/trajectory.hpp"
@@ -156,6 +159,26 @@ TEST(TrajectoryDetect, ShortNanosecondStampsOfASimulatedClockAreNanoseconds) {
   const fs::path mixed = write_file(test_dir() / "mixed.txt",
                                     "0 0 0 0 0 0 0 1\n5000.5 0 0 0 0 0 0 1\n10000 0 0 0 0 0 0 1\n");
   EXPECT_EQ(read_trajectory(mixed).at(1).t_ns, 5'000'500'000'000);
+}
+
+// A named pipe (eval --est <(...)) can be read once: detection, the unit check and the parser share one
+// read. It used to be opened three times, the parser then seeing what was left.
+TEST(TrajectoryRead, ANamedPipeIsReadOnce) {
+  const fs::path fifo = test_dir() / "pipe";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string text = "# timestamp tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n2.0 1 0 0 0 0 0 1\n3.0 2 0 0 0 0 0 1\n";
+  std::thread writer([&] { std::ofstream(fifo, std::ios::binary) << text; });
+  Trajectory t;
+  try {
+    t = read_trajectory(fifo);
+  } catch (...) {
+    writer.join();
+    throw;
+  }
+  writer.join();
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[2].t_ns, 3'000'000'000);
+  EXPECT_DOUBLE_EQ(t[2].T_world_body.translation().x(), 2.0);
 }
 
 TEST(TrajectoryDetect, CommaSeparatedSecondsWithZeroFractionAreTum) {

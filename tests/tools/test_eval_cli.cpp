@@ -128,6 +128,13 @@ TEST(EvalCli, KittiPairsByIndexAndOffsetShiftsTheEstimate) {
   RunResult r = run_in(dir, "eval --gt gt.kitti --est est.kitti --out k");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(read_json(dir / "k" / "metrics.json")["association"]["method"], "index");
+  EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+  // Counts that differ pair the first poses of each, with a warning giving both counts.
+  core::write_trajectory(dir / "short.kitti", Trajectory(gt.begin(), gt.begin() + 40), TrajectoryFormat::kKitti);
+  r = run_in(dir, "eval --gt gt.kitti --est short.kitti --out s");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("gt.kitti has 100 poses, short.kitti 40; only the first 40 of each are paired"), std::string::npos)
+      << r.output;
   // An estimate stamped 1 s late pairs only with --offset -1.
   Trajectory late = gt;
   for (auto& p : late) p.t_ns += 1'000'000'000;
