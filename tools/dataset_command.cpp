@@ -173,6 +173,9 @@ void run_info(const DatasetOptions& options, const GlobalOptions& global) {
 
 void run_convert(const DatasetOptions& options, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger("dataset", global);
+  if (options.stop != -1 && !(options.stop > options.start)) {
+    throw InputError("--stop", "must be -1 (to the end) or more than --start (" + std::to_string(options.start) + ")");
+  }
   core::DatasetConfig config;
   config.start_index = options.start;
   config.stop_index = options.stop;
@@ -187,6 +190,11 @@ void run_convert(const DatasetOptions& options, const GlobalOptions& global) {
   }
   const auto sink = core::make_dataset_writer(options.out, to, source->rig(), logger);
   const std::size_t written = core::copy_frames(*source, *sink, logger);
+  if (written == 0) {
+    throw InputError(options.path, "no frame to convert from index " + std::to_string(options.start) + " on (the sequence has " +
+                                       std::to_string(source->info().listed_frames) + " listed frames); " + options.out +
+                                       " holds no frames");
+  }
   std::cout << "wrote " << written << " frames to " << options.out << " (" << options.to << ")\n";
 }
 

@@ -93,6 +93,7 @@ void run_experiment(const ExperimentOptions& o, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger("experiment", global);
   const bool all = o.name == "all";
   if (!o.doc.empty() && !all) throw InputError("--doc", "is written by `fleetslam experiment all` only");
+  if (o.frames != -1 && o.frames < 1) throw InputError("--frames", "must be -1 (all) or at least 1");
   const ex::DataSourcesConfig sources = data_sources(o);
   ex::check_data_sources(sources);
   // Settings are checked before anything is rendered.
@@ -112,6 +113,9 @@ void run_experiment(const ExperimentOptions& o, const GlobalOptions& global) {
   sampling_config.max_frames = o.frames;
   const ex::SamplingExperiment sampling(sampling_config, logger);
 
+  if (sources.tum_dir.empty() && sources.euroc_dir.empty() && sources.scenarios.empty()) {
+    throw InputError("--tum, --euroc, --scenario", "all are none: there is no sequence to run the experiments on");
+  }
   const fs::path out = o.out;
   std::error_code ec;
   fs::create_directories(out, ec);

@@ -151,6 +151,7 @@ class DescriptorCollector {
 
 void run_train(const VocabOptions& o, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger("vocab", global);
+  if (o.max_images != -1 && o.max_images < 1) throw InputError("--max-images", "must be -1 (all) or at least 1");
   if (o.image_folders.empty() && o.datasets.empty()) {
     throw InputError("vocab train", "no images: give --images folders or --dataset sequences");
   }

@@ -214,6 +214,13 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
   result = run("dataset info " + quoted(kEuroc) + " --groundtruth " + quoted(dir_ / "gt.txt"));
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("gt.txt: missing ground-truth file"), std::string::npos) << result.err;
+  // A frame range that holds no frame is an error, not "wrote 0 frames".
+  result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "backwards") + " --start 10 --stop 5");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--stop: must be -1 (to the end) or more than --start (10)"), std::string::npos) << result.err;
+  result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "beyond") + " --start 100000");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("no frame to convert from index 100000 on"), std::string::npos) << result.err;
 }
 
 }  // namespace

@@ -176,6 +176,13 @@ TEST(ExperimentCliErrors, BadSettingsExitTwo) {
   const test::CliResult f = test::run_cli("experiment matching --features 3 --tum none --euroc none --scenario none");
   EXPECT_EQ(f.exit_code, 2) << f.output;
   EXPECT_NE(f.output.find("--features"), std::string::npos) << f.output;
+  // Nothing to run on, or a frame count that is neither -1 nor positive, is an error, not empty tables.
+  const test::CliResult none = test::run_cli("experiment matching --tum none --euroc none --scenario none");
+  EXPECT_EQ(none.exit_code, 2) << none.output;
+  EXPECT_NE(none.output.find("all are none"), std::string::npos) << none.output;
+  const test::CliResult frames = test::run_cli("experiment matching --frames -5 --tum none --euroc none --scenario none");
+  EXPECT_EQ(frames.exit_code, 2) << frames.output;
+  EXPECT_NE(frames.output.find("--frames"), std::string::npos) << frames.output;
 }
 
 }  // namespace

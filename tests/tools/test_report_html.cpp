@@ -205,6 +205,19 @@ TEST(ReportHtml, FailedVerdictAndNoCriteria) {
   EXPECT_NE(none.find(">PASS<small>no criteria</small>"), std::string::npos);
 }
 
+// A failed criterion never reads as if it held: a value just over its limit gets the decimals that tell
+// them apart (0.03004 against 0.03 read "0.03 <= 0.03 FAIL").
+TEST(ReportHtml, AValueJustOverItsLimitIsPrintedApart) {
+  json report = synthetic_report(false);
+  report["metrics"]["verdict"] = {
+      {"passed", false},
+      {"criteria", {{{"name", "ate_world_rmse_m"}, {"robot", ""}, {"value", 0.03004}, {"limit", 0.03},
+                     {"comparison", "<="}, {"passed", false}, {"note", ""}}}}};
+  const std::string html = render_report_html(report);
+  EXPECT_NE(html.find(">0.03004</td>"), std::string::npos) << html;
+  EXPECT_NE(html.find("0.03</td>"), std::string::npos);
+}
+
 TEST(ReportHtml, EmptyReportSaysNotAvailable) {
   std::string html;
   ASSERT_NO_THROW(html = render_report_html(json::object()));

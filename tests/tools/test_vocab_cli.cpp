@@ -139,6 +139,7 @@ TEST_F(VocabCli, BadInputEndsWithOneErrorLine) {
                "vocabulary.branching: must be in [2, 64], got 1");
   expect_error(run("vocab train --dataset " + quoted(dir_ / "images") + " --out " + quoted(dir_ / "v.fsvoc")),
                (dir_ / "images").string());
+  expect_error(train(dir_ / "v.fsvoc", "--max-images 0"), "--max-images: must be -1 (all) or at least 1");
   // Where the vocabulary goes is checked before the images are read, not after the training.
   expect_error(train(dir_ / "images"), "--out is a folder");
   std::ofstream(dir_ / "plain") << "a file, not a folder";

@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <tuple>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -127,6 +128,18 @@ std::string smart_number(double value) {
   if (magnitude >= 100.0) return fixed_trimmed(value, 1);
   if (magnitude >= 1.0) return fixed_trimmed(value, 3);
   return fixed_trimmed(value, 4);
+}
+
+// A value and the limit it is judged against, as smart_number prints them, with more decimals where that
+// rounding makes two different numbers look the same (0.03004 against 0.03 read "0.03 <= 0.03 FAIL").
+std::pair<std::string, std::string> value_and_limit(double value, double limit) {
+  std::string v = smart_number(value);
+  std::string l = smart_number(limit);
+  for (int decimals = 5; v == l && value != limit && decimals <= 17; ++decimals) {
+    v = fixed_trimmed(value, decimals);
+    l = fixed_trimmed(limit, decimals);
+  }
+  return {v, l};
 }
 
 // Table cell text of a number scaled by `scale` ("n/a" when missing, of another type or not finite).
@@ -573,9 +586,11 @@ std::string criterion_row(const json* criterion, const RobotColours& colours) {
   const auto value = number_of(child(criterion, "value"));
   const auto limit = number_of(child(criterion, "limit"));
   const auto note = string_of(child(criterion, "note"));
+  std::string value_text = value ? smart_number(*value) : kNoValue;
+  std::string limit_text = limit ? smart_number(*limit) : kNoValue;
+  if (value && limit) std::tie(value_text, limit_text) = value_and_limit(*value, *limit);
   return "<tr><td>" + string_text(child(criterion, "name")) + "</td><td>" + robot_html + "</td><td class=\"num\">" +
-         (value ? smart_number(*value) : kNoValue) + "</td><td class=\"num\">" +
-         comparison_html(child(criterion, "comparison")) + (limit ? smart_number(*limit) : kNoValue) +
+         value_text + "</td><td class=\"num\">" + comparison_html(child(criterion, "comparison")) + limit_text +
          "</td><td>" + pill(bool_of(child(criterion, "passed"))) + "</td><td>" + (note ? core::escape_markup(*note) : "") +
          "</td></tr>\n";
 }
