@@ -1,10 +1,13 @@
 #include "fleetslam/core/config.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -69,15 +72,48 @@ ConfigReader::~ConfigReader() = default;
 ConfigReader::ConfigReader(ConfigReader&&) noexcept = default;
 ConfigReader& ConfigReader::operator=(ConfigReader&&) noexcept = default;
 
+namespace {
+
+// A key given twice in one map: yaml-cpp keeps both and a lookup finds the first, so a later override was
+// dropped without a word (and never checked against its limits).
+void refuse_duplicate_keys(const YAML::Node& node, const std::string& name) {
+  if (node.IsMap()) {
+    std::map<std::string, int> first_line;
+    for (const auto& entry : node) {
+      if (entry.first.IsScalar()) {
+        const std::string& key = entry.first.Scalar();
+        const int line = entry.first.Mark().line + 1;
+        const auto [it, inserted] = first_line.emplace(key, line);
+        if (!inserted) {
+          throw InputError(name + ":" + std::to_string(line),
+                           "key '" + key + "' given twice (first on line " + std::to_string(it->second) + ")");
+        }
+      }
+      refuse_duplicate_keys(entry.second, name);
+    }
+  } else if (node.IsSequence()) {
+    for (const auto& element : node) refuse_duplicate_keys(element, name);
+  }
+}
+
+}  // namespace
+
 ConfigReader ConfigReader::from_string(const std::string& text, const std::string& name) {
   auto impl = std::make_unique<Impl>();
   impl->file = name;
   try {
+    // One document: a second one (after "---") would be dropped unread.
+    const std::vector<YAML::Node> documents = YAML::LoadAll(text);
+    if (documents.size() > 1) {
+      throw InputError(name + ":" + std::to_string(documents[1].Mark().line + 1),
+                       "holds " + std::to_string(documents.size()) + " YAML documents; a config is one");
+    }
     // Node::operator= writes through to the referenced node; reset() rebinds (used throughout).
-    impl->node.reset(YAML::Load(text));
+    impl->node.reset(documents.empty() ? YAML::Node() : documents.front());
   } catch (const YAML::Exception& e) {
     throw InputError(name + ":" + std::to_string(e.mark.line + 1), "malformed YAML: " + e.msg);
   }
+  refuse_duplicate_keys(impl->node, name);
   if (impl->node.IsNull()) {
     impl->node.reset(YAML::Node(YAML::NodeType::Map));
   } else if (!impl->node.IsMap()) {
@@ -152,6 +188,14 @@ void read_number(const YAML::Node& map, const std::string& where, const char* ke
   const YAML::Node value = scalar_at(map, where, key, expected);
   if (!value) return;
   T parsed{};
+  if constexpr (std::is_integral_v<T>) {
+    // yaml-cpp reads "010" as octal 8 (and refuses "09") while a real-valued key reads 10: refused.
+    const std::string& text = value.Scalar();
+    const std::size_t digits = !text.empty() && (text[0] == '+' || text[0] == '-') ? 1 : 0;
+    if (text.size() > digits + 1 && text[digits] == '0' && std::isdigit(static_cast<unsigned char>(text[digits + 1])) != 0) {
+      throw InputError(where, "'" + text + "' has a leading zero (octal in YAML); write it without" + line_suffix(value));
+    }
+  }
   try {
     parsed = value.as<T>();
   } catch (const YAML::Exception&) {

@@ -110,6 +110,17 @@ TEST(Config, ErrorsNameFileAndKey) {
   EXPECT_EQ(error_of("- 1\n- 2\n"), "agent.yaml: expected a YAML map at the top level, got a list");
   EXPECT_EQ(error_of("a: [1, 2\n").rfind("agent.yaml:", 0), 0u);
   EXPECT_NE(error_of("a: [1, 2\n").find("malformed YAML"), std::string::npos);
+  // A key given twice (the second was dropped unread, even out of range), a second document (dropped) and
+  // an octal-looking integer (010 read as 8) are refused.
+  EXPECT_EQ(error_of("required_value: 1\nlevels: 5\nlevels: 2000\n"),
+            "agent.yaml:3: key 'levels' given twice (first on line 2)");
+  EXPECT_EQ(error_of("required_value: 1\ninner:\n  radius_m: 1\n  radius_m: 2\n"),
+            "agent.yaml:4: key 'radius_m' given twice (first on line 3)");
+  EXPECT_EQ(error_of("required_value: 1\n---\nlevels: 2000\n").rfind("agent.yaml:", 0), 0u);
+  EXPECT_NE(error_of("required_value: 1\n---\nlevels: 2000\n").find("2 YAML documents"), std::string::npos);
+  EXPECT_EQ(error_of("required_value: 1\nlevels: 010\n"),
+            "agent.yaml:levels: '010' has a leading zero (octal in YAML); write it without (line 2)");
+  EXPECT_EQ(error_of("required_value: 1\nlevels: 0\n"), "agent.yaml:levels: 0 is outside [1, 16] (line 2)");
 }
 
 struct RobotConfig {
