@@ -74,8 +74,15 @@ EvalSettings settings_from(const EvalOptions& o) {
   s.association.max_difference_ns = parse_seconds_option("--max-diff", o.max_diff);
   s.association.offset_ns = parse_seconds_option("--offset", o.offset);
   if (s.association.max_difference_ns <= 0) throw InputError("--max-diff", "must be positive");
+  // Bounded so that stamps plus these stay within int64 nanoseconds (1e10 s wrapped to a negative time).
+  constexpr TimeNs kMaxSpanNs = 1'000'000LL * 1'000'000'000LL;  // 1e6 s
+  if (s.association.max_difference_ns > kMaxSpanNs) throw InputError("--max-diff", "must be at most 1e6 s");
+  if (s.association.offset_ns > 1000 * kMaxSpanNs || s.association.offset_ns < -1000 * kMaxSpanNs) {
+    throw InputError("--offset", "must be within +-1e9 s");
+  }
   s.rpe = {o.rpe_delta, *rpe_unit_from_string(o.rpe_unit)};
   if (!(o.rpe_delta > 0.0) || !std::isfinite(o.rpe_delta)) throw InputError("--rpe-delta", "must be positive");
+  if (o.rpe_delta > 1e6) throw InputError("--rpe-delta", "must be at most 1e6 (seconds, metres or frames)");
   if (s.rpe.unit == RpeUnit::kFrames && std::floor(o.rpe_delta) != o.rpe_delta) {
     throw InputError("--rpe-delta", "a delta in frames must be a whole number");
   }

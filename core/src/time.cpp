@@ -70,6 +70,12 @@ std::optional<TimeNs> parse_seconds(std::string_view text) {
   std::string_view mantissa = text.substr(0, e);
   std::string_view exponent_text = text.substr(e + 1);
   if (!exponent_text.empty() && exponent_text.front() == '+') exponent_text.remove_prefix(1);
+  // An exponent is a whole number: "2e-2.5" is not 2e-3.
+  const std::string_view exponent_digits =
+      !exponent_text.empty() && exponent_text.front() == '-' ? exponent_text.substr(1) : exponent_text;
+  if (exponent_digits.empty() || exponent_digits.find_first_not_of("0123456789") != std::string_view::npos) {
+    return std::nullopt;
+  }
   const auto exponent = parse_fixed_point(exponent_text, 0);
   if (!exponent || *exponent > 30 || *exponent < -30 || exponent_text.empty()) return std::nullopt;
   std::string sign;

@@ -288,7 +288,9 @@ RpeResult compute_rpe(const Trajectory& gt, const Trajectory& est, const std::ve
     const Eigen::Isometry3d Q = relative(gt[pairs[k].gt_index].T_world_body, gt[pairs[j].gt_index].T_world_body);
     Eigen::Isometry3d P = relative(est[pairs[k].est_index].T_world_body, est[pairs[j].est_index].T_world_body);
     P.translation() *= est_scale;
-    const Eigen::Isometry3d E = Q.inverse() * P;
+    // evaluate_rpe.py's order, ominus(ominus(P_j, P_i), ominus(Q_j, Q_i)) = P Q^-1 (same angle as Sturm et
+    // al.'s Q^-1 P, translation up to a rotation of the gt step: the tool's numbers are the ones compared).
+    const Eigen::Isometry3d E = P * Q.inverse();
     result.from_pair.push_back(k);
     result.to_pair.push_back(j);
     result.t_ns.push_back(gt[pairs[k].gt_index].t_ns);

@@ -31,7 +31,8 @@ TEST(Time, ParsesScientificNotationThroughDouble) {
 }
 
 TEST(Time, RejectsJunk) {
-  for (const char* bad : {"", " ", "abc", "1.2.3", "1,5", "nan", "inf", "1e", "12x", "-", ".", "1e999"}) {
+  for (const char* bad : {"", " ", "abc", "1.2.3", "1,5", "nan", "inf", "1e", "12x", "-", ".", "1e999", "2e-2.5", "2e1.0",
+                          "1e-", "1e+"}) {
     EXPECT_FALSE(parse_seconds(bad).has_value()) << bad;
   }
   EXPECT_FALSE(parse_seconds("99999999999999999999").has_value());  // overflow

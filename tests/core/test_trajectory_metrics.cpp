@@ -282,8 +282,9 @@ TEST(Rpe, ConstantDriftPerStepIsMeasuredExactly) {
   const Eigen::Isometry3d drift = pose(Eigen::Vector3d(0.01, -0.02, 0.005), Eigen::Vector3d(0.0, 0.0, 0.003));
   Trajectory est = gt;
   for (std::size_t k = 1; k < est.size(); ++k) {
-    // P_k = P_{k-1} (Q_{k-1}^-1 Q_k) D, so that (Q_{k-1}^-1 Q_k)^-1 (P_{k-1}^-1 P_k) = D.
-    est[k].T_world_body = est[k - 1].T_world_body * gt[k - 1].T_world_body.inverse() * gt[k].T_world_body * drift;
+    // P_k = P_{k-1} D (Q_{k-1}^-1 Q_k), so that evaluate_rpe.py's (P_{k-1}^-1 P_k) (Q_{k-1}^-1 Q_k)^-1 = D
+    // (the other order, (Q_{k-1}^-1 Q_k)^-1 (P_{k-1}^-1 P_k), would be D turned by each step's rotation).
+    est[k].T_world_body = est[k - 1].T_world_body * drift * gt[k - 1].T_world_body.inverse() * gt[k].T_world_body;
   }
   const RpeResult rpe = compute_rpe(gt, est, associate_by_index(gt, est), {1, RpeUnit::kFrames});
   ASSERT_EQ(rpe.translation_m.count, gt.size() - 1);

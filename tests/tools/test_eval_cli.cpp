@@ -186,7 +186,12 @@ INSTANTIATE_TEST_SUITE_P(
                       BadRun{"repeated_stamp_strict", kGoodTum, "1.00 0 0 0 0 0 0 1\n1.00 0 0 0 0 0 0 1\n",
                              "--duplicates error", "est.txt:2: repeated timestamp"},
                       BadRun{"bad_max_diff", kGoodTum, kGoodTum, "--max-diff abc", "--max-diff"},
-                      BadRun{"fractional_frames", kGoodTum, kGoodTum, "--rpe-delta 1.5", "--rpe-delta"}),
+                      BadRun{"fractional_frames", kGoodTum, kGoodTum, "--rpe-delta 1.5", "--rpe-delta"},
+                      // Spans past int64 nanoseconds wrapped: 1e10 s paired consecutive poses as "RPE/1e+10 s".
+                      BadRun{"huge_rpe_delta", kGoodTum, kGoodTum, "--rpe-unit s --rpe-delta 1e10", "--rpe-delta"},
+                      BadRun{"huge_max_diff", kGoodTum, kGoodTum, "--max-diff 8e9", "--max-diff"},
+                      BadRun{"huge_offset", kGoodTum, kGoodTum, "--offset -2e9", "--offset"},
+                      BadRun{"fractional_exponent", kGoodTum, kGoodTum, "--max-diff 2e-2.5", "--max-diff"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
 TEST(EvalCli, UnknownAlignmentIsAUsageError) {

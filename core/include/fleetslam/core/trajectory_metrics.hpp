@@ -1,8 +1,9 @@
 #pragma once
 // Trajectory metrics: association of an estimate with ground truth, alignment, ATE and RPE.
 // Association and ATE follow the TUM RGB-D benchmark tools (associate.py, evaluate_ate.py) exactly, so
-// the numbers here match theirs; RPE uses the error definition of evaluate_rpe.py / Sturm et al. 2012:
-// E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j) with Q ground truth and P the estimate.
+// the numbers here match theirs; RPE uses evaluate_rpe.py's error, E_ij = (P_i^-1 P_j) (Q_i^-1 Q_j)^-1 with
+// Q ground truth and P the estimate (Sturm et al. 2012 write (Q_i^-1 Q_j)^-1 (P_i^-1 P_j): the same
+// rotation angle, a translation that can differ by millimetres; the tool's is the one papers report).
 //
 // Failure is a field of the result, not an exception: too few pairs or degenerate geometry give a
 // status the caller checks (the CLI turns them into errors naming the files).
