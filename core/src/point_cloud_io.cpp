@@ -597,6 +597,12 @@ std::string pcd_decompress(const std::string& file, const PcdHeader& header, std
                                std::to_string(header.points * header.point_size));
   }
   if (body.size() - 8 < compressed) throw InputError(file, "truncated body: compressed data is cut short");
+  // LZF expands 3 bytes into at most 264: a larger claim is a bad header, refused before allocating it (a
+  // 120-byte file claimed 4 GiB).
+  if (uncompressed / 88 > compressed + 3) {
+    throw InputError(file, "bad body: " + std::to_string(compressed) + " compressed bytes cannot hold the " +
+                               std::to_string(uncompressed) + " bytes of POINTS * point size");
+  }
   std::string by_field(uncompressed, '\0');
   if (!lzf_decompress(body.substr(8, compressed), by_field)) throw InputError(file, "bad body: corrupt LZF data");
   std::string by_point(uncompressed, '\0');

@@ -463,6 +463,14 @@ TEST(PointCloudIo, ReadsBinaryCompressedPcd) {
   corrupt[corrupt.size() - 10] = static_cast<char>(200);  // the back reference now points before the start
   const std::string path = write_file(dir / "corrupt.pcd", corrupt);
   expect_input_error([&] { read_pcd(path); }, path, "corrupt LZF data");
+
+  // A header claiming more than LZF can expand its compressed bytes into is refused before the allocation
+  // (357913941 points of 12 bytes from 0 compressed bytes: 4 GiB).
+  std::string huge = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 357913941\nHEIGHT 1\nPOINTS 357913941\nDATA binary_compressed\n";
+  const std::uint32_t huge_sizes[2] = {0u, 357913941u * 12u};
+  huge.append(reinterpret_cast<const char*>(huge_sizes), 8);
+  const std::string huge_path = write_file(dir / "huge.pcd", huge);
+  expect_input_error([&] { read_pcd(huge_path); }, huge_path, "0 compressed bytes cannot hold the 4294967292 bytes");
 }
 
 // ---------------------------------------------------------------------------------------------------
