@@ -270,6 +270,21 @@ void print_summary(const RunResult& run, const std::vector<core::SkippedRow>& un
               out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply");
 }
 
+// The files a replay writes in its folder, some only sometimes (a dense map, ground truth, the split's
+// merged map): an earlier replay's are removed first, so that what the folder holds afterwards is this
+// run's (a stale dense_map.ply or metrics.json next to new results read as theirs). Only these names are
+// touched: a split's robot folders (robot_a, ...) are left as they are.
+void remove_earlier_outputs(const fs::path& out, const core::Logger& logger) {
+  std::size_t removed = 0;
+  for (const char* name : {"config.yaml", "trajectory.txt", "keyframes.txt", "timings.csv", "keyframe_decisions.csv",
+                           "dense_map.ply", "groundtruth.txt", "metrics.json", "central_config.yaml", "merged_map.ply",
+                           "merge.json"}) {
+    std::error_code ec;
+    if (fs::is_regular_file(out / name, ec) && fs::remove(out / name, ec)) ++removed;
+  }
+  if (removed > 0) logger->info("removed {} output file(s) of an earlier replay from {}", removed, out.string());
+}
+
 // The sequence's parts as robots: frame k of n goes to robot floor(k * parts / n).
 void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const slam::AgentConfig& config,
                       core::FrameSource& source, const core::Logger& logger, const fs::path& out) {
@@ -362,6 +377,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
+  remove_earlier_outputs(out, logger);
   write_text_file(out / "config.yaml", core::config_to_yaml(config));
   if (o.split > 1) {
     if (!o.save_map.empty() || !o.load_map.empty()) throw InputError("--split", "takes neither --save-map nor --load-map");

@@ -162,6 +162,17 @@ TEST(ReplayCli, BadMapFileEndsWithOneLine) {
   r = run("-q replay '" + kTum.string() + "' --split 2 --load-map '" + (dir / "missing.fsmap").string() + "' --out '" +
           (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  // Outputs of an earlier replay into the same folder go (a split's merged map next to a plain run's
+  // results read as this run's); other files stay.
+  const fs::path reused = dir / "reused";
+  fs::create_directories(reused);
+  for (const char* name : {"merged_map.ply", "merge.json", "notes.txt"}) std::ofstream(reused / name) << "earlier";
+  r = run("-q replay '" + kTum.string() + "' --max-frames 5 --out '" + reused.string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(reused / "merged_map.ply"));
+  EXPECT_FALSE(fs::exists(reused / "merge.json"));
+  EXPECT_TRUE(fs::exists(reused / "notes.txt"));
+  EXPECT_TRUE(fs::exists(reused / "metrics.json"));
   // A map that cannot be written (its folder is a file) fails the command, but the run's other outputs
   // are written first.
   std::ofstream(dir / "a_file") << "x";
