@@ -6,6 +6,7 @@
 
 #include "fleetslam/core/config.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/slam/agent.hpp"
 #include "fleetslam/slam/keyframe_policy.hpp"
 
 namespace fleetslam::slam {
@@ -79,6 +80,23 @@ TEST(ExponentialPolicy, FastTranslationTakesAKeyframe) {
   const KeyframeDecision d = policy->decide(c);
   EXPECT_TRUE(d.insert) << d.reason;
   EXPECT_NEAR(factor(d, "T_R"), 1.0, 1e-12);
+}
+
+// The tests above use the policy's own default Q = 1; agents (replay, run, the experiments) ship Q = 2
+// (AgentConfig::default_keyframes): the same motions then need larger factors.
+TEST(ExponentialPolicy, TheAgentsShippedThresholdNeedsLargerFactors) {
+  const KeyframePolicyConfig shipped = AgentConfig::default_keyframes();
+  ASSERT_EQ(shipped.policy, KeyframePolicyKind::kExponential);
+  ASSERT_DOUBLE_EQ(shipped.q_threshold, 2.0);
+  const auto policy = make_keyframe_policy(shipped);
+  KeyframeContext c = still_context(3);
+  c.translation_since_reference_m = 0.2;  // T_R = 1: e - 1 = 1.72, a keyframe at Q = 1, not at Q = 2
+  EXPECT_FALSE(policy->decide(c).insert);
+  c.translation_since_reference_m = 0.24;  // T_R = 1.2: e^1.2 - 1 = 2.32 > 2
+  const KeyframeDecision d = policy->decide(c);
+  EXPECT_TRUE(d.insert) << d.reason;
+  // Standing still: 0.25 (e^T_I - 1) > 2 needs T_I > ln 9 = 2.197 s, frame 66 at 30 Hz.
+  EXPECT_EQ(first_keyframe(*policy, 300, still_context), static_cast<int>(std::floor(std::log(9.0) * kFps)) + 1);
 }
 
 TEST(ExponentialPolicy, FastRotationTakesAKeyframe) {

@@ -120,7 +120,8 @@ TEST_F(ExperimentCli, SamplingWritesTable3) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   expect_csv(out / "sampling" / "sampling.csv", "dataset,origin,mode,robots,frames,duration_s,points_before", 2);
   const std::string csv = read_text(out / "sampling" / "sampling.csv");
-  EXPECT_NE(csv.find("tum/rgbd_dataset_freiburg1_rpy_200,real,split,2,12,"), std::string::npos) << csv;
+  // The dataset length is the whole split sequence (12 frames, 0.368 s), not one robot's half of it.
+  EXPECT_NE(csv.find("tum/rgbd_dataset_freiburg1_rpy_200,real,split,2,12,0.368,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("office_2robots,synthetic,robots,2,24,"), std::string::npos) << csv;
   expect_markdown_table(out / "sampling" / "sampling.md");
   EXPECT_NE(read_text(out / "sampling" / "sampling.md").find("reduction (%)"), std::string::npos);

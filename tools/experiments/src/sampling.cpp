@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include <spdlog/logger.h>
 
@@ -41,6 +42,9 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
   SamplingRow row;
   row.robots = static_cast<int>(parts.size());
   std::vector<core::Trajectory> groundtruths(parts.size());
+  // The time the robots' frames span together: the whole sequence when it is split into consecutive
+  // parts, the longest robot when they run side by side (the paper's "dataset length").
+  std::optional<core::TimeNs> span_first, span_last;
   for (std::size_t r = 0; r < parts.size(); ++r) {
     const RobotPart& part = parts[r];
     const auto source = open_sequence(part.sequence, part.start, part.stop, logger_);
@@ -67,8 +71,12 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
     agent.finish();
     server.integrate_all(link);
     row.frames += static_cast<std::size_t>(sequence);
-    row.duration_s = std::max(row.duration_s, core::ns_to_seconds(last_t - first_t));
+    if (sequence > 0) {
+      span_first = span_first ? std::min(*span_first, first_t) : first_t;
+      span_last = span_last ? std::max(*span_last, last_t) : last_t;
+    }
   }
+  if (span_first) row.duration_s = core::ns_to_seconds(*span_last - *span_first);
   const central::ServerMergeReport& report = server.merge();
   row.points_before = report.merge.points_before_sampling;
   row.points_after = report.merge.points_after_sampling;

@@ -39,7 +39,7 @@ struct SamplingRow {
   std::string mode;     // "split" or "robots"
   int robots = 0;
   std::size_t frames = 0;
-  double duration_s = 0.0;  // of the longest robot's part
+  double duration_s = 0.0;  // the time all robots' frames span: a split sequence's whole length
   std::size_t points_before = 0;
   std::size_t points_after = 0;
   std::size_t points_after_filter = 0;
