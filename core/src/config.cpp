@@ -173,11 +173,20 @@ void ConfigReader::require_present(const char* key) const {
 namespace {
 
 // The scalar at key, or an undefined node when absent. Throws when present but not a scalar.
+// The line of `key` in `map`: an empty value (a null node) carries no position of its own that names it.
+std::string key_line_suffix(const YAML::Node& map, const char* key) {
+  for (const auto& entry : map) {
+    if (entry.first.IsScalar() && entry.first.Scalar() == key) return line_suffix(entry.first);
+  }
+  return "";
+}
+
 YAML::Node scalar_at(const YAML::Node& map, const std::string& where, const char* key, const char* expected) {
   YAML::Node value = map[key];
   if (!value) return value;
   if (!value.IsScalar()) {
-    throw InputError(where, std::string("expected ") + expected + ", got " + describe(value) + line_suffix(value));
+    throw InputError(where, std::string("expected ") + expected + ", got " + describe(value) +
+                                (value.IsNull() ? key_line_suffix(map, key) : line_suffix(value)));
   }
   return value;
 }

@@ -121,6 +121,9 @@ TEST(Config, ErrorsNameFileAndKey) {
   EXPECT_EQ(error_of("required_value: 1\nlevels: 010\n"),
             "agent.yaml:levels: '010' has a leading zero (octal in YAML); write it without (line 2)");
   EXPECT_EQ(error_of("required_value: 1\nlevels: 0\n"), "agent.yaml:levels: 0 is outside [1, 16] (line 2)");
+  // An empty value is reported on its key's line (a null node has no line of its own).
+  EXPECT_EQ(error_of("required_value: 1\nlevels:\n\n\n\nenabled: true\n"),
+            "agent.yaml:levels: expected an integer, got nothing (line 2)");
 }
 
 struct RobotConfig {
