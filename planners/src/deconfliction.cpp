@@ -16,18 +16,23 @@ struct TimedPath {
   int robot_id = 0;
   std::vector<Pose2d> path;
   Eigen::Vector2d rest_world = Eigen::Vector2d::Zero();  // where it stands without a path
+  double start_s = 0.0;  // when it starts along the path (after its start turn)
+
+  Eigen::Vector2d at(double speed_m_per_s, double t_s) const {
+    return position_at(path, speed_m_per_s, t_s - start_s, rest_world);
+  }
+  double end_s(double speed_m_per_s) const { return start_s + path_duration_s(path, speed_m_per_s); }
 };
 
 std::optional<Conflict> first_conflict(const TimedPath& a, const TimedPath& b, const DeconflictionConfig& c) {
-  const double end = std::max(path_duration_s(a.path, c.speed_m_per_s), path_duration_s(b.path, c.speed_m_per_s)) +
-                     c.time_margin_s + c.time_step_s;
+  const double end = std::max(a.end_s(c.speed_m_per_s), b.end_s(c.speed_m_per_s)) + c.time_margin_s + c.time_step_s;
   const int margin_steps = static_cast<int>(std::ceil(c.time_margin_s / c.time_step_s));
   for (int k = 0; k * c.time_step_s <= end; ++k) {
     const double t = k * c.time_step_s;
-    const Eigen::Vector2d pb = position_at(b.path, c.speed_m_per_s, t, b.rest_world);
+    const Eigen::Vector2d pb = b.at(c.speed_m_per_s, t);
     for (int m = -margin_steps; m <= margin_steps; ++m) {
       const double ta = std::max(0.0, t + m * c.time_step_s);
-      const Eigen::Vector2d pa = position_at(a.path, c.speed_m_per_s, ta, a.rest_world);
+      const Eigen::Vector2d pa = a.at(c.speed_m_per_s, ta);
       const double d = (pa - pb).norm();
       if (d < c.separation_m) return Conflict{a.robot_id, b.robot_id, t, pa, pb, d};
     }
@@ -41,6 +46,18 @@ double path_duration_s(const std::vector<Pose2d>& path_world, double speed_m_per
   double length = 0.0;
   for (std::size_t i = 1; i < path_world.size(); ++i) length += (path_world[i].xy() - path_world[i - 1].xy()).norm();
   return length / speed_m_per_s;
+}
+
+double start_turn_s(double start_yaw_rad, const std::vector<Pose2d>& path_world, double yaw_rate_radps) {
+  if (!(yaw_rate_radps > 0.0)) return 0.0;
+  for (std::size_t i = 1; i < path_world.size(); ++i) {
+    const Eigen::Vector2d d = path_world[i].xy() - path_world[i - 1].xy();
+    if (!(d.norm() > 1e-9)) continue;
+    constexpr double kTwoPi = 6.283185307179586;
+    const double turn = std::remainder(std::atan2(d.y(), d.x()) - start_yaw_rad, kTwoPi);
+    return std::isfinite(turn) ? std::abs(turn) / yaw_rate_radps : 0.0;
+  }
+  return 0.0;
 }
 
 Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_m_per_s, double t_s,
@@ -63,6 +80,7 @@ Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planne
   // step never ended the conflict scan).
   const auto in = [](double value, double lo, double hi) { return value >= lo && value <= hi; };
   if (!in(config_.speed_m_per_s, 1e-3, 100.0)) throw InputError("deconfliction.speed_m_per_s", "must be in [0.001, 100]");
+  if (!in(config_.yaw_rate_radps, 0.0, 100.0)) throw InputError("deconfliction.yaw_rate_radps", "must be in [0, 100]");
   if (!in(config_.time_step_s, 1e-3, 10.0)) throw InputError("deconfliction.time_step_s", "must be in [0.001, 10]");
   if (!in(config_.time_margin_s, 0.0, 100.0)) throw InputError("deconfliction.time_margin_s", "must be in [0, 100]");
   if (!in(config_.separation_m, 0.0, 100.0)) throw InputError("deconfliction.separation_m", "must be in [0, 100]");
@@ -83,7 +101,8 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
     int replans = 0;
     std::optional<Conflict> conflict;
     for (;;) {
-      TimedPath mine{q.robot_id, plan.path_world, q.start_world.xy()};
+      TimedPath mine{q.robot_id, plan.path_world, q.start_world.xy(),
+                     start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)};
       conflict.reset();
       for (const TimedPath& other : timed) {
         conflict = first_conflict(other, mine, config_);
@@ -96,7 +115,7 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
       const double step_s = 0.5 * grid.resolution_m() / config_.speed_m_per_s;
       for (double t = conflict->time_s - config_.block_window_s; t <= conflict->time_s + config_.block_window_s;
            t += step_s) {
-        const Eigen::Vector2d p = position_at(other.path, config_.speed_m_per_s, t, other.rest_world);
+        const Eigen::Vector2d p = other.at(config_.speed_m_per_s, t);
         if ((p - q.start_world.xy()).norm() < config_.separation_m || (p - q.goal_world).norm() < config_.separation_m) {
           continue;
         }
@@ -110,7 +129,8 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
       plan = std::move(replanned);
     }
     if (conflict) result.conflicts.push_back(*conflict);
-    timed.push_back(TimedPath{q.robot_id, plan.path_world, q.start_world.xy()});
+    timed.push_back(TimedPath{q.robot_id, plan.path_world, q.start_world.xy(),
+                              start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)});
     result.plans.push_back(std::move(plan));
     result.replans.push_back(replans);
   }

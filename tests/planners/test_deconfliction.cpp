@@ -2,6 +2,7 @@
 // clear of one a robot is already following; timing helpers.
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 
@@ -123,6 +124,43 @@ TEST(Deconflicter, TimingAlongAPath) {
   EXPECT_TRUE(position_at(path, 0.5, 100.0, {9, 9}).isApprox(Eigen::Vector2d(1.0, 2.0)));
   EXPECT_TRUE(position_at(path, 0.5, -1.0, {9, 9}).isApprox(Eigen::Vector2d(0.0, 0.0)));
   EXPECT_TRUE(position_at({}, 0.5, 1.0, {9, 9}).isApprox(Eigen::Vector2d(9.0, 9.0)));
+}
+
+TEST(Deconflicter, StartTurnTime) {
+  const std::vector<Pose2d> east{{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};  // a zero-length first segment
+  EXPECT_NEAR(start_turn_s(M_PI, east, 0.5), 2.0 * M_PI, 1e-12);
+  EXPECT_NEAR(start_turn_s(-M_PI / 2.0, east, 0.5), M_PI, 1e-12);
+  EXPECT_NEAR(start_turn_s(2.0 * M_PI + 0.1, east, 1.0), 0.1, 1e-12);  // angles wrap
+  EXPECT_EQ(start_turn_s(M_PI, east, 0.0), 0.0);                        // not timed
+  EXPECT_EQ(start_turn_s(M_PI, {{1.0, 1.0, 0.0}}, 0.5), 0.0);           // no segment
+}
+
+// A robot that must first turn around starts along its path later: the schedule that ignored the turn
+// had it pass a crossing 5 s before the committed robot got there, while it really arrives with it.
+TEST(Deconflicter, TheStartTurnDelaysTheSchedule) {
+  const OccupancyGrid grid = test::make_grid(10.0, 4.0, [](const Eigen::Vector2d&) { return false; }, kRadius);
+  // Robot 1 drives west along y = 0.5 from x = 9 to 5 (8 s at 0.5 m/s), then north: at (5, 2) at t = 11 s.
+  std::vector<Pose2d> driving;
+  for (double x = 9.0; x > 5.0 + 1e-9; x -= 0.25) driving.push_back(Pose2d{x, 0.5, M_PI});
+  for (double y = 0.5; y <= 3.5 + 1e-9; y += 0.25) driving.push_back(Pose2d{5.0, y, M_PI / 2.0});
+  const std::vector<CommittedPath> committed{{1, driving, Eigen::Vector2d(9.0, 0.5)}};
+  // Robot 2 crosses x = 5 on y = 2 going east, 6 s after it starts along its path; it faces west.
+  const std::vector<RobotQuery> queries{{2, Pose2d{2.0, 2.0, M_PI}, {8.0, 2.0}}};
+  DeconflictionConfig c;
+  c.separation_m = 2.0 * kRadius + 0.1;
+  PathPlannerConfig pc;
+  pc.seed = 5;
+  const DeconflictionResult untimed = Deconflicter(c, pc).plan(grid, queries, committed);
+  ASSERT_TRUE(untimed.plans[0].solved());
+  EXPECT_TRUE(untimed.conflict_free());
+  EXPECT_EQ(untimed.replans[0], 0);
+  c.yaw_rate_radps = M_PI / 5.0;  // half a turn in 5 s: at x = 5 at t = 11 s, with robot 1
+  const DeconflictionResult turning = Deconflicter(c, pc).plan(grid, queries, committed);
+  EXPECT_GE(turning.replans[0], 1);
+  // Facing its path, the robot needs no turn: the untimed schedule holds.
+  const DeconflictionResult facing = Deconflicter(c, pc).plan(grid, {{2, Pose2d{2.0, 2.0, 0.0}, {8.0, 2.0}}}, committed);
+  EXPECT_EQ(facing.replans[0], 0);
+  EXPECT_TRUE(facing.conflict_free());
 }
 
 // A config built in code is checked like one read from YAML: a zero speed or time step never ended the

@@ -257,16 +257,26 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   }
   // The deconfliction times every path at one speed: no faster than the slowest planned robot drives, or
   // its schedule would run ahead of that robot and check the robots' separation at the wrong places.
+  // Likewise the turn on the spot at a path's start, at the slowest robot's yaw rate (or the config's, when
+  // given and slower).
   PlanningConfig planning = config_.planner;
   double slowest_mps = std::numeric_limits<double>::infinity();
+  double slowest_radps = std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < robots.size(); ++r) {
-    const double max_speed_mps = world.robot_config(r).controller.max_speed_mps;
-    if (robots[r].ground && max_speed_mps > 0.0) slowest_mps = std::min(slowest_mps, max_speed_mps);
+    const sim::PurePursuitConfig& controller = world.robot_config(r).controller;
+    if (robots[r].ground && controller.max_speed_mps > 0.0) slowest_mps = std::min(slowest_mps, controller.max_speed_mps);
+    if (robots[r].ground && controller.max_yaw_rate_radps > 0.0) {
+      slowest_radps = std::min(slowest_radps, controller.max_yaw_rate_radps);
+    }
   }
-  if (config_.mission.kind != MissionKind::kScripted && slowest_mps < planning.deconfliction.speed_m_per_s) {
+  planners::DeconflictionConfig& deconfliction = planning.deconfliction;
+  if (config_.mission.kind != MissionKind::kScripted && slowest_mps < deconfliction.speed_m_per_s) {
     logger->info("deconfliction timed at {:.3f} m/s, the slowest robot's controller.max_speed_mps (planner.deconfliction."
-                 "speed_m_per_s {:.3f} is faster)", slowest_mps, planning.deconfliction.speed_m_per_s);
-    planning.deconfliction.speed_m_per_s = slowest_mps;
+                 "speed_m_per_s {:.3f} is faster)", slowest_mps, deconfliction.speed_m_per_s);
+    deconfliction.speed_m_per_s = slowest_mps;
+  }
+  if (std::isfinite(slowest_radps) && (deconfliction.yaw_rate_radps == 0.0 || slowest_radps < deconfliction.yaw_rate_radps)) {
+    deconfliction.yaw_rate_radps = slowest_radps;
   }
   MissionPlanner mission(config_.mission, planning, mission_robots, logger);
   if (mission.planned()) {

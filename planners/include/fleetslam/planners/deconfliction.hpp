@@ -1,9 +1,10 @@
 #pragma once
 // Multi-robot deconfliction by priorities. Robots are planned in the order given (first = highest
-// priority). Each path is timed at a nominal speed along its xy length (turning in place takes no time;
-// before its start time a robot stands at its start, after its end at its last pose; a robot without a
-// path stands at its start throughout); robots already following a path they keep (CommittedPath) come
-// first, timed from now. A later robot's path conflicts with an earlier one when, at some
+// priority). Each path is timed at a nominal speed along its xy length, after the turn on the spot from
+// the robot's start yaw to the path's first heading at yaw_rate_radps (0: turning takes no time; turns
+// along the path are not timed); before its start time a robot stands at its start, after its end at
+// its last pose; a robot without a path stands at its start throughout. Robots already following a path
+// they keep (CommittedPath) come first, timed from now. A later robot's path conflicts with an earlier one when, at some
 // time t (sampled every time_step_s), the two are closer than separation_m at times t and t' with
 // |t - t'| <= time_margin_s. On a conflict the later robot is replanned with the earlier robot's path
 // around the conflict (poses within +-block_window_s of it) blocked by disks of radius separation_m (disks
@@ -23,6 +24,7 @@ namespace fleetslam::planners {
 
 struct DeconflictionConfig {
   double speed_m_per_s = 0.5;
+  double yaw_rate_radps = 0.0;  // the start turn's rate (0: not timed)
   double time_step_s = 0.1;
   double time_margin_s = 0.5;
   double separation_m = 0.5;   // at least twice the robot radius
@@ -32,6 +34,7 @@ struct DeconflictionConfig {
   template <class V>
   void visit(V& v) {
     v("speed_m_per_s", speed_m_per_s, core::Limits<double>{1e-3, 100.0});
+    v("yaw_rate_radps", yaw_rate_radps, core::Limits<double>{0.0, 100.0});
     v("time_step_s", time_step_s, core::Limits<double>{1e-3, 10.0});
     v("time_margin_s", time_margin_s, core::Limits<double>{0.0, 100.0});
     v("separation_m", separation_m, core::Limits<double>{0.0, 100.0});
@@ -94,5 +97,9 @@ Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_
 
 // Duration (s) of a path at speed_m_per_s.
 double path_duration_s(const std::vector<Pose2d>& path_world, double speed_m_per_s);
+
+// Time (s) to turn on the spot from start_yaw_rad to the heading of the path's first segment that has a
+// length, at yaw_rate_radps (0 when the rate is 0 or the path has no such segment).
+double start_turn_s(double start_yaw_rad, const std::vector<Pose2d>& path_world, double yaw_rate_radps);
 
 }  // namespace fleetslam::planners
