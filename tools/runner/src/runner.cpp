@@ -270,13 +270,14 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     }
   }
   planners::DeconflictionConfig& deconfliction = planning.deconfliction;
-  if (config_.mission.kind != MissionKind::kScripted && slowest_mps < deconfliction.speed_m_per_s) {
-    logger->info("deconfliction timed at {:.3f} m/s, the slowest robot's controller.max_speed_mps (planner.deconfliction."
-                 "speed_m_per_s {:.3f} is faster)", slowest_mps, deconfliction.speed_m_per_s);
-    deconfliction.speed_m_per_s = slowest_mps;
-  }
+  if (slowest_mps < deconfliction.speed_m_per_s) deconfliction.speed_m_per_s = slowest_mps;
   if (std::isfinite(slowest_radps) && (deconfliction.yaw_rate_radps == 0.0 || slowest_radps < deconfliction.yaw_rate_radps)) {
     deconfliction.yaw_rate_radps = slowest_radps;
+  }
+  if (config_.mission.kind != MissionKind::kScripted) {
+    logger->info("deconfliction: paths timed at {:.3f} m/s, start turns at {:.3f} rad/s (planner.deconfliction, "
+                 "slowed to the slowest planned robot's controller limits)",
+                 deconfliction.speed_m_per_s, deconfliction.yaw_rate_radps);
   }
   MissionPlanner mission(config_.mission, planning, mission_robots, logger);
   if (mission.planned()) {
