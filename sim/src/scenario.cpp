@@ -1,6 +1,7 @@
 #include "fleetslam/sim/scenario.hpp"
 
 #include <cmath>
+#include <map>
 #include <set>
 #include <string>
 
@@ -123,6 +124,18 @@ void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& fi
     check_waypoints(file, i, robot);
     check_sensors(file, i, robot, scenario.physics_step_s);
     if (robot.seed < 0) robot.seed = scenario.seed * 1000 + static_cast<std::int64_t>(i) + 1;
+  }
+  // Two robots with one seed draw the same noise: a seed of its own can equal another robot's derived one.
+  std::map<std::int64_t, std::size_t> robot_of_seed;
+  for (std::size_t i = 0; i < scenario.robots.size(); ++i) {
+    const auto [it, inserted] = robot_of_seed.emplace(scenario.robots[i].seed, i);
+    if (!inserted) {
+      throw InputError(robot_key(file, i, "seed"),
+                       "robot '" + scenario.robots[i].name + "' has seed " + std::to_string(scenario.robots[i].seed) +
+                           ", as robot '" + scenario.robots[it->second].name +
+                           "' has: their sensor noise would be identical (robots without a seed of their own get "
+                           "seed * 1000 + index + 1)");
+    }
   }
   check_start_overlap(file, scenario);
   if (!std::filesystem::is_regular_file(scenario.scene_path())) {

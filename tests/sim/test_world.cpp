@@ -588,6 +588,10 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
   EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: R&D}\n").find("robots[0].name: robot name 'R&D'"),
             std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nseed: 1000000000000001\nrobots:\n  - {name: a}\n").find("seed"), std::string::npos);
+  // Robot b's derived seed (1 * 1000 + 1 + 1) is the seed robot a was given: identical noise, refused.
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: a, seed: 1002}\n  - {name: b, initial_pose: {x: 1}}\n")
+                .find("robots[1].seed: robot 'b' has seed 1002, as robot 'a' has"),
+            std::string::npos);
   // A free rig starts at its first waypoint, not at its (unused) initial pose.
   const std::string rig = "  - {name: r, type: free_rig, waypoints: [{t_s: 0, x: X}, {t_s: 1, x: 4}]}\n";
   const auto with_rig_at = [&](const std::string& x) {
