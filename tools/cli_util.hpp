@@ -28,7 +28,8 @@ core::Progress make_progress(std::size_t total, const std::string& label, const 
 nlohmann::json skipped_row_json(const core::SkippedRow& row);
 nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows);
 
-// Shared with the runner library: writing text outputs, timings and loop closures as JSON.
+// Shared with the runner library: creating output folders, writing text outputs, timings and loop closures as JSON.
+using runner::create_output_folder;
 using runner::loop_event_json;
 using runner::loop_rejections_json;
 using runner::timing_stats_json;

@@ -117,9 +117,7 @@ void run_experiment(const ExperimentOptions& o, const GlobalOptions& global) {
     throw InputError("--tum, --euroc, --scenario", "all are none: there is no sequence to run the experiments on");
   }
   const fs::path out = o.out;
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
+  create_output_folder(out);
   const std::vector<ex::SequenceSpec> real = ex::real_sequences(sources);
   const std::vector<ex::SequenceSpec> synthetic = ex::render_synthetic(sources, logger);
   ex::ResultsInput doc;

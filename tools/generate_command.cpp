@@ -224,9 +224,7 @@ void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
   check_robots(options, scenario, selected, format);
 
   // Every robot of the scenario runs (they share the world), only the selected ones are written.
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+  create_output_folder(out);
   sim::World world(scenario, logger);
   write_effective_scenario(out / kScenarioFile, scenario);
   std::vector<RobotOutput> outputs = open_outputs(out, world, selected, format, logger);

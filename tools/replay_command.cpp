@@ -374,9 +374,7 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   const slam::AgentConfig config = agent_config(o, settings);
   std::unique_ptr<core::FrameSource> source = open_source(o, settings, logger);
   const fs::path out = o.out;
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) throw InputError(o.out, "cannot create the output folder: " + ec.message());
+  create_output_folder(out);
   remove_earlier_outputs(out, logger);
   write_text_file(out / "config.yaml", core::config_to_yaml(config));
   if (o.split > 1) {

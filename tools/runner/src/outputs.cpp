@@ -4,11 +4,18 @@
 
 #include <algorithm>
 #include <fstream>
+#include <system_error>
 
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 
 namespace fleetslam::runner {
+
+void create_output_folder(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw InputError(dir.string(), "cannot create the output folder: " + ec.message());
+}
 
 void write_text_file(const std::filesystem::path& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);

@@ -217,9 +217,7 @@ Runner::Runner(RunScenarioConfig config, RunnerOptions options, core::Logger log
   if (!options_.prior_error.empty() && options_.prior_error.size() != 4) {
     throw InputError("--prior-error", "needs 4 values: dx dy dz (m) yaw (deg)");
   }
-  std::error_code ec;
-  fs::create_directories(options_.out, ec);
-  if (ec) throw InputError(options_.out.string(), "cannot create the output folder: " + ec.message());
+  create_output_folder(options_.out);
 }
 
 RunOutcome Runner::run(const ProgressSink& progress) {

@@ -11,6 +11,9 @@
 
 namespace fleetslam::runner {
 
+// Creates `dir` and its parents when missing; InputError naming it when that fails.
+void create_output_folder(const std::filesystem::path& dir);
+
 // Writes `text` to `path` (truncating); InputError naming the file when that fails.
 void write_text_file(const std::filesystem::path& path, const std::string& text);
 
