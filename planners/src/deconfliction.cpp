@@ -95,14 +95,18 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
   DeconflictionResult result;
   std::vector<TimedPath> timed;
   for (const CommittedPath& c : committed) timed.push_back(TimedPath{c.robot_id, c.path_world, c.position_world});
+  // A query's plan as timed: after the turn from the robot's start yaw to the path.
+  const auto timed_plan = [&](const RobotQuery& q, const PlanResult& plan) {
+    return TimedPath{q.robot_id, plan.path_world, q.start_world.xy(),
+                     start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)};
+  };
   for (const RobotQuery& q : queries) {
     std::vector<Disk> blocked;
     PlanResult plan = planner_.plan(grid, q.start_world, q.goal_world, blocked);
     int replans = 0;
     std::optional<Conflict> conflict;
     for (;;) {
-      TimedPath mine{q.robot_id, plan.path_world, q.start_world.xy(),
-                     start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)};
+      const TimedPath mine = timed_plan(q, plan);
       conflict.reset();
       for (const TimedPath& other : timed) {
         conflict = first_conflict(other, mine, config_);
@@ -129,8 +133,7 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
       plan = std::move(replanned);
     }
     if (conflict) result.conflicts.push_back(*conflict);
-    timed.push_back(TimedPath{q.robot_id, plan.path_world, q.start_world.xy(),
-                              start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)});
+    timed.push_back(timed_plan(q, plan));
     result.plans.push_back(std::move(plan));
     result.replans.push_back(replans);
   }

@@ -72,11 +72,9 @@ struct Renderer::Impl {
 
   // The GL context is per thread and per renderer: another renderer (a second World) or another thread
   // may have made its own current since, and MuJoCo's buffers and textures live in this one.
-  void make_current() {
-    if (OSMesaGetCurrentContext() == gl) return;
-    if (!OSMesaMakeCurrent(gl, gl_buffer.data(), GL_UNSIGNED_BYTE, buffer_width, buffer_height)) {
-      throw Error("OSMesa: cannot make the off-screen GL context current");
-    }
+  bool make_current() {
+    return OSMesaGetCurrentContext() == gl ||
+           OSMesaMakeCurrent(gl, gl_buffer.data(), GL_UNSIGNED_BYTE, buffer_width, buffer_height) != 0;
   }
   mjvScene scene{};
   mjrContext context{};
@@ -118,9 +116,7 @@ Renderer::Renderer(const mjModel* model, int max_width, int max_height) : impl_(
 
 Renderer::~Renderer() {
   // MuJoCo frees its GL objects in the current context: this renderer's.
-  if (OSMesaGetCurrentContext() != impl_->gl) {
-    OSMesaMakeCurrent(impl_->gl, impl_->gl_buffer.data(), GL_UNSIGNED_BYTE, impl_->buffer_width, impl_->buffer_height);
-  }
+  impl_->make_current();
   mjr_freeContext(&impl_->context);
   mjv_freeScene(&impl_->scene);
   OSMesaDestroyContext(impl_->gl);
@@ -128,7 +124,7 @@ Renderer::~Renderer() {
 
 void Renderer::render(const mjModel* model, mjData* data, int camera_id, int width, int height,
                       const RenderOptions& options, cv::Mat* bgr, cv::Mat* depth_m) {
-  impl_->make_current();
+  if (!impl_->make_current()) throw Error("OSMesa: cannot make the off-screen GL context current");
   mjvCamera camera;
   mjv_defaultCamera(&camera);
   camera.type = mjCAMERA_FIXED;
