@@ -44,6 +44,12 @@ void check_sensors(const std::filesystem::path& file, std::size_t index, const R
                      std::to_string(robot.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
                          std::to_string(1.0 / physics_step_s) + " Hz (physics_step_s)");
   }
+  // IMU samples travel in the SensorFrame of the next camera image: without a camera none is ever
+  // delivered, and they pile up for the whole run.
+  if (robot.imu.enabled && !robot.camera.enabled) {
+    throw InputError(robot_key(file, index, "imu.enabled"),
+                     "IMU samples are delivered with camera frames; a robot with its camera off cannot have an IMU");
+  }
   const DepthNoiseConfig& depth = robot.camera.depth_noise;
   if (!(depth.min_depth_m < depth.max_depth_m)) {
     throw InputError(robot_key(file, index, "camera.depth_noise.max_depth_m"),

@@ -585,6 +585,8 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
   EXPECT_NE(error_of("scene: scene.xml\nphysics_step_s: 0.01\nrobots:\n  - {name: a, imu: {rate_hz: 200}}\n")
                 .find("robots[0].imu.rate_hz"),
             std::string::npos);
+  EXPECT_NE(error_of(a + "camera: {enabled: false}, imu: {enabled: true}}\n").find("robots[0].imu.enabled"),
+            std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: R&D}\n").find("robots[0].name: robot name 'R&D'"),
             std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nseed: 1000000000000001\nrobots:\n  - {name: a}\n").find("seed"), std::string::npos);
