@@ -89,6 +89,7 @@ TEST(RunCli, ThreadedRunTracksEveryFrameOfEveryRobot) {
 }
 
 // A criterion that cannot hold fails the run: exit 1, one line naming it, and the verdict in the outputs.
+// The folder held an earlier run's files: those are removed by name first.
 TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   const fs::path dir = test_dir();
   // The scene path is relative to the scenario file: point at the real one.
@@ -97,8 +98,22 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   scenario.replace(scenario.find(scene_key), scene_key.size(), "scene: '" + kOfficeScene.string() + "'");
   std::ofstream(dir / "strict.yaml") << scenario << "criteria:\n  max_ate_m: 0.0\n  min_real_time_factor: 1000\n";
   const fs::path out = dir / "run";
+  // An earlier run of a scenario with a robot "ghost" left its folder: removed. A folder holding anything
+  // else, and files of other names, stay.
+  fs::create_directories(out / "ghost");
+  fs::create_directories(out / "notes");
+  std::ofstream(out / "ghost" / "trajectory.txt") << "1 0 0 0 0 0 0 1\n";
+  std::ofstream(out / "ghost" / "map.ply") << "stale\n";
+  std::ofstream(out / "notes" / "trajectory.txt") << "mine\n";
+  std::ofstream(out / "notes" / "todo.md") << "mine\n";
+  std::ofstream(out / "todo.md") << "mine\n";
   const RunResult r = run("-q run '" + (dir / "strict.yaml").string() + "' --duration 1 --out '" + out.string() + "'");
   EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_FALSE(fs::exists(out / "ghost"));
+  EXPECT_TRUE(fs::exists(out / "notes" / "trajectory.txt"));
+  EXPECT_TRUE(fs::exists(out / "notes" / "todo.md"));
+  EXPECT_TRUE(fs::exists(out / "todo.md"));
+  EXPECT_NE(read_text(out / "run.log").find("removed 2 output file(s) of an earlier run"), std::string::npos);
   EXPECT_NE(r.output.find("failed its pass criteria: ate_world_rmse_m (alpha)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("real_time_factor"), std::string::npos) << r.output;
   const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
