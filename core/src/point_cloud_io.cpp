@@ -21,9 +21,11 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "fleetslam/core/error.hpp"
@@ -174,6 +176,24 @@ std::vector<std::string_view> split_words(std::string_view line) {
   return words;
 }
 
+// The values an integer scalar type holds, as doubles (the 64-bit limits round up to a power of two, which
+// does no harm: values are kept as doubles).
+std::pair<double, double> integer_range(Scalar type) {
+  switch (type) {
+    case Scalar::kI8: return {-128.0, 127.0};
+    case Scalar::kU8: return {0.0, 255.0};
+    case Scalar::kI16: return {-32768.0, 32767.0};
+    case Scalar::kU16: return {0.0, 65535.0};
+    case Scalar::kI32: return {-2147483648.0, 2147483647.0};
+    case Scalar::kU32: return {0.0, 4294967295.0};
+    case Scalar::kI64: return {-9223372036854775808.0, 9223372036854775807.0};
+    case Scalar::kU64: return {0.0, 18446744073709551615.0};
+    case Scalar::kF32:
+    case Scalar::kF64: break;
+  }
+  return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+}
+
 template <class T>
 std::optional<T> parse_number(std::string_view text) {
   if (!text.empty() && text.front() == '+') text.remove_prefix(1);
@@ -190,7 +210,13 @@ std::optional<double> parse_value(std::string_view text, Scalar type) {
     const std::optional<float> value = parse_number<float>(text);
     return value ? std::optional<double>(static_cast<double>(*value)) : std::nullopt;
   }
-  return parse_number<double>(text);
+  const std::optional<double> value = parse_number<double>(text);
+  if (!value || type == Scalar::kF64) return value;
+  // An integer type takes whole numbers within its range ("255.0" is 255; "3.5", or 300 for a uchar, is
+  // no uchar): a list count of 3.5 read three items and misaligned the rest of the row.
+  const auto [lowest, highest] = integer_range(type);
+  if (!(*value >= lowest && *value <= highest && std::floor(*value) == *value)) return std::nullopt;
+  return value;
 }
 
 // Reads header lines one at a time, remembering where the body starts.

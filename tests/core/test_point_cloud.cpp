@@ -250,6 +250,15 @@ TEST(PointCloudIo, BadHeadersAreInputErrors) {
       {"number.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
                      "end_header\n1 two 3\n",
        "bad number 'two'"},
+      // Integer types take whole numbers in range: a list count of 2.5 misaligned the row it was in.
+      {"count.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float tags\nproperty float x\n"
+                    "property float y\nproperty float z\nend_header\n2.5 7 8 1 2 3\n",
+       "bad number '2.5'"},
+      {"uchar.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                    "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 300 0 0\n",
+       "bad number '300'"},
+      {"int.pcd", "FIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F I\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 0.5\n",
+       "bad number '0.5'"},
       {"no_data.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\n", "no DATA line"},
       {"sizes.pcd", "FIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
        "different numbers of fields"},
@@ -307,7 +316,7 @@ TEST(PointCloudIo, ReadsAsciiPlyWithDoublesNormalsExtraElementsAndFloatColours) 
                                       "end_header\r\n"
                                       "3 0.1 0.2 0.3 525.0\r\n"
                                       "1.25 -2.5 +3e2 0 0 1 1.0 0.5 0 2 7 8 255\r\n"
-                                      "0.1 0.2 0.3 0 1 0 0 0 1 0 128\r\n"
+                                      "0.1 0.2 0.3 0 1 0 0 0 1 0.0 1.28e2\r\n"  // whole numbers
                                       "3 0 1 1\r\n");
   const PointCloud cloud = read_ply(path);
   ASSERT_EQ(cloud.size(), 2u);
