@@ -14,8 +14,6 @@
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/goals/GoalSampleableRegion.h>
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
-#include <ompl/base/spaces/DubinsStateSpace.h>
-#include <ompl/base/spaces/ReedsSheppStateSpace.h>
 #include <ompl/base/spaces/SE2StateSpace.h>
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/PathSimplifier.h>
@@ -26,6 +24,7 @@
 #include <ompl/util/RandomNumbers.h>
 #include <spdlog/spdlog.h>
 
+#include "curve_state_spaces.hpp"
 #include "fleetslam/core/error.hpp"
 
 namespace fleetslam::planners {
@@ -108,10 +107,8 @@ ob::StateSpacePtr make_space(const PathPlannerConfig& config, const OccupancyGri
   ob::StateSpacePtr space;
   switch (config.state_space) {
     case StateSpaceKind::kSe2: space = std::make_shared<ob::SE2StateSpace>(); break;
-    case StateSpaceKind::kDubins: space = std::make_shared<ob::DubinsStateSpace>(config.turning_radius_m); break;
-    case StateSpaceKind::kReedsShepp:
-      space = std::make_shared<ob::ReedsSheppStateSpace>(config.turning_radius_m);
-      break;
+    case StateSpaceKind::kDubins: space = std::make_shared<CurveCheckedDubins>(config.turning_radius_m); break;
+    case StateSpaceKind::kReedsShepp: space = std::make_shared<CurveCheckedReedsShepp>(config.turning_radius_m); break;
   }
   ob::RealVectorBounds bounds(2);
   const Eigen::Vector2d lo = grid.origin_world();
