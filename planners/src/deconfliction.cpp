@@ -16,23 +16,21 @@ struct TimedPath {
   int robot_id = 0;
   std::vector<Pose2d> path;
   Eigen::Vector2d rest_world = Eigen::Vector2d::Zero();  // where it stands without a path
-  double start_s = 0.0;  // when it starts along the path (after its start turn)
+  PathSchedule schedule;
 
-  Eigen::Vector2d at(double speed_m_per_s, double t_s) const {
-    return position_at(path, speed_m_per_s, t_s - start_s, rest_world);
-  }
-  double end_s(double speed_m_per_s) const { return start_s + path_duration_s(path, speed_m_per_s); }
+  Eigen::Vector2d at(double t_s) const { return position_at(path, schedule, t_s, rest_world); }
+  double end_s() const { return schedule.end_s(); }
 };
 
 std::optional<Conflict> first_conflict(const TimedPath& a, const TimedPath& b, const DeconflictionConfig& c) {
-  const double end = std::max(a.end_s(c.speed_m_per_s), b.end_s(c.speed_m_per_s)) + c.time_margin_s + c.time_step_s;
+  const double end = std::max(a.end_s(), b.end_s()) + c.time_margin_s + c.time_step_s;
   const int margin_steps = static_cast<int>(std::ceil(c.time_margin_s / c.time_step_s));
   for (int k = 0; k * c.time_step_s <= end; ++k) {
     const double t = k * c.time_step_s;
-    const Eigen::Vector2d pb = b.at(c.speed_m_per_s, t);
+    const Eigen::Vector2d pb = b.at(t);
     for (int m = -margin_steps; m <= margin_steps; ++m) {
       const double ta = std::max(0.0, t + m * c.time_step_s);
-      const Eigen::Vector2d pa = a.at(c.speed_m_per_s, ta);
+      const Eigen::Vector2d pa = a.at(ta);
       const double d = (pa - pb).norm();
       if (d < c.separation_m) return Conflict{a.robot_id, b.robot_id, t, pa, pb, d};
     }
@@ -40,38 +38,64 @@ std::optional<Conflict> first_conflict(const TimedPath& a, const TimedPath& b, c
   return std::nullopt;
 }
 
-}  // namespace
-
-double path_duration_s(const std::vector<Pose2d>& path_world, double speed_m_per_s) {
-  double length = 0.0;
-  for (std::size_t i = 1; i < path_world.size(); ++i) length += (path_world[i].xy() - path_world[i - 1].xy()).norm();
-  return length / speed_m_per_s;
-}
-
-double start_turn_s(double start_yaw_rad, const std::vector<Pose2d>& path_world, double yaw_rate_radps) {
-  if (!(yaw_rate_radps > 0.0)) return 0.0;
+// The heading of a path's first segment that has a length (0 without one).
+double first_heading(const std::vector<Pose2d>& path_world) {
   for (std::size_t i = 1; i < path_world.size(); ++i) {
     const Eigen::Vector2d d = path_world[i].xy() - path_world[i - 1].xy();
-    if (!(d.norm() > 1e-9)) continue;
-    constexpr double kTwoPi = 6.283185307179586;
-    const double turn = std::remainder(std::atan2(d.y(), d.x()) - start_yaw_rad, kTwoPi);
-    return std::isfinite(turn) ? std::abs(turn) / yaw_rate_radps : 0.0;
+    if (d.norm() > 1e-9) return std::atan2(d.y(), d.x());
   }
   return 0.0;
 }
 
-Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, double speed_m_per_s, double t_s,
+}  // namespace
+
+PathSchedule schedule_path(const std::vector<Pose2d>& path_world, double start_yaw_rad, const DeconflictionConfig& config) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const double on_spot_rad = config.turn_on_spot_deg * kTwoPi / 360.0;
+  PathSchedule schedule;
+  schedule.arrive_s.resize(path_world.size());
+  schedule.depart_s.resize(path_world.size());
+  double t = 0.0;
+  double heading = start_yaw_rad;
+  for (std::size_t i = 0; i < path_world.size(); ++i) {
+    schedule.arrive_s[i] = t;
+    double drive_s = 0.0;
+    if (i + 1 < path_world.size()) {
+      const Eigen::Vector2d d = path_world[i + 1].xy() - path_world[i].xy();
+      const double length = d.norm();
+      drive_s = length / config.speed_m_per_s;
+      if (length > 1e-9 && config.yaw_rate_radps > 0.0) {
+        const double next = std::atan2(d.y(), d.x());
+        double turn = std::abs(std::remainder(next - heading, kTwoPi));
+        if (!std::isfinite(turn)) turn = 0.0;  // a start yaw that is no angle: nothing to time
+        heading = next;
+        const double turn_s = turn / config.yaw_rate_radps;
+        if (turn > on_spot_rad) {
+          t += turn_s;
+        } else {
+          drive_s = std::max(drive_s, turn_s);
+        }
+      }
+    }
+    schedule.depart_s[i] = t;
+    t += drive_s;
+  }
+  return schedule;
+}
+
+Eigen::Vector2d position_at(const std::vector<Pose2d>& path_world, const PathSchedule& schedule, double t_s,
                             const Eigen::Vector2d& fallback) {
   if (path_world.empty()) return fallback;
-  double remaining = std::max(0.0, t_s) * speed_m_per_s;
-  for (std::size_t i = 1; i < path_world.size(); ++i) {
-    const Eigen::Vector2d a = path_world[i - 1].xy();
-    const Eigen::Vector2d b = path_world[i].xy();
-    const double length = (b - a).norm();
-    if (remaining <= length) return length > 0.0 ? Eigen::Vector2d(a + (b - a) * (remaining / length)) : a;
-    remaining -= length;
-  }
-  return path_world.back().xy();
+  FLEETSLAM_CHECK(schedule.arrive_s.size() == path_world.size() && schedule.depart_s.size() == path_world.size(),
+                  "position_at: the schedule is of another path");
+  // The last pose reached by t_s (arrival times never decrease).
+  const auto reached = std::upper_bound(schedule.arrive_s.begin(), schedule.arrive_s.end(), t_s);
+  if (reached == schedule.arrive_s.begin()) return path_world.front().xy();
+  const auto i = static_cast<std::size_t>(reached - schedule.arrive_s.begin()) - 1;
+  if (i + 1 == path_world.size() || !(t_s > schedule.depart_s[i])) return path_world[i].xy();
+  const double span = schedule.arrive_s[i + 1] - schedule.depart_s[i];
+  const double along = span > 0.0 ? (t_s - schedule.depart_s[i]) / span : 1.0;
+  return path_world[i].xy() + (path_world[i + 1].xy() - path_world[i].xy()) * std::clamp(along, 0.0, 1.0);
 }
 
 Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planner_config, core::Logger logger)
@@ -81,6 +105,7 @@ Deconflicter::Deconflicter(const Config& config, const PathPlannerConfig& planne
   const auto in = [](double value, double lo, double hi) { return value >= lo && value <= hi; };
   if (!in(config_.speed_m_per_s, 1e-3, 100.0)) throw InputError("deconfliction.speed_m_per_s", "must be in [0.001, 100]");
   if (!in(config_.yaw_rate_radps, 0.0, 100.0)) throw InputError("deconfliction.yaw_rate_radps", "must be in [0, 100]");
+  if (!in(config_.turn_on_spot_deg, 0.0, 180.0)) throw InputError("deconfliction.turn_on_spot_deg", "must be in [0, 180]");
   if (!in(config_.time_step_s, 1e-3, 10.0)) throw InputError("deconfliction.time_step_s", "must be in [0.001, 10]");
   if (!in(config_.time_margin_s, 0.0, 100.0)) throw InputError("deconfliction.time_margin_s", "must be in [0, 100]");
   if (!in(config_.separation_m, 0.0, 100.0)) throw InputError("deconfliction.separation_m", "must be in [0, 100]");
@@ -94,11 +119,14 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
                                        const std::vector<CommittedPath>& committed) const {
   DeconflictionResult result;
   std::vector<TimedPath> timed;
-  for (const CommittedPath& c : committed) timed.push_back(TimedPath{c.robot_id, c.path_world, c.position_world});
-  // A query's plan as timed: after the turn from the robot's start yaw to the path.
+  // A committed robot is under way along its path: it faces along it, with no turn at its start.
+  for (const CommittedPath& c : committed) {
+    timed.push_back(TimedPath{c.robot_id, c.path_world, c.position_world,
+                              schedule_path(c.path_world, first_heading(c.path_world), config_)});
+  }
   const auto timed_plan = [&](const RobotQuery& q, const PlanResult& plan) {
     return TimedPath{q.robot_id, plan.path_world, q.start_world.xy(),
-                     start_turn_s(q.start_world.yaw_rad, plan.path_world, config_.yaw_rate_radps)};
+                     schedule_path(plan.path_world, q.start_world.yaw_rad, config_)};
   };
   for (const RobotQuery& q : queries) {
     std::vector<Disk> blocked;
@@ -119,7 +147,7 @@ DeconflictionResult Deconflicter::plan(const OccupancyGrid& grid, const std::vec
       const double step_s = 0.5 * grid.resolution_m() / config_.speed_m_per_s;
       for (double t = conflict->time_s - config_.block_window_s; t <= conflict->time_s + config_.block_window_s;
            t += step_s) {
-        const Eigen::Vector2d p = other.at(config_.speed_m_per_s, t);
+        const Eigen::Vector2d p = other.at(t);
         if ((p - q.start_world.xy()).norm() < config_.separation_m || (p - q.goal_world).norm() < config_.separation_m) {
           continue;
         }

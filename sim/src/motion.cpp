@@ -11,8 +11,7 @@ namespace {
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kPi = 3.14159265358979323846;
-// A proportional turn never reaches zero heading error exactly; below this it would never drive off.
-constexpr double kMinRotateInPlaceRad = 2.0 * kPi / 180.0;
+constexpr double kMinRotateInPlaceRad = PurePursuit::kMinRotateInPlaceDeg * kPi / 180.0;
 // Heading error to yaw rate while turning on the spot (1/s): settles within about a second.
 constexpr double kRotateGain = 2.0;
 

@@ -146,14 +146,16 @@ TEST(RunCli, SeedReachesTheRobots) {
 }
 
 // A planned run times its deconfliction by the robots' controllers: the office robots drive at most
-// 0.4 m/s (the planner's nominal speed is 0.5) and turn at 0.5 rad/s.
+// 0.4 m/s (the planner's nominal speed is 0.5), turn at 0.5 rad/s, and on the spot beyond 60 degrees.
 TEST(RunCli, DeconflictionIsTimedByTheSlowestRobot) {
   const fs::path out = test_dir() / "planned";
   const fs::path planned = fs::path(FLEETSLAM_SOURCE_DIR) / "tests" / "scenarios" / "office_planned.yaml";
   const RunResult r = run("-q run '" + planned.string() + "' --duration 0.2 --out '" + out.string() + "'");
   EXPECT_LE(r.exit_code, 1) << r.output;  // a 0.2 s run may fail its criteria; it runs to its verdict
   const std::string log = read_text(out / "run.log");
-  EXPECT_NE(log.find("deconfliction: paths timed at 0.400 m/s, start turns at 0.500 rad/s"), std::string::npos) << log;
+  EXPECT_NE(log.find("deconfliction: paths timed at 0.400 m/s, turns at 0.500 rad/s, on the spot beyond 60.0 deg"),
+            std::string::npos)
+      << log;
 }
 
 TEST(RunCli, BadInputEndsWithOneClearLine) {

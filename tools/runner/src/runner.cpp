@@ -295,27 +295,29 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   }
   // The deconfliction times every path at one speed: no faster than the slowest planned robot drives, or
   // its schedule would run ahead of that robot and check the robots' separation at the wrong places.
-  // Likewise the turn on the spot at a path's start, at the slowest robot's yaw rate (or the config's, when
-  // given and slower).
+  // Likewise its turns, at the slowest robot's yaw rate (or the config's, when given and slower), and on the
+  // spot from the smallest heading change that makes any planned robot's controller turn on the spot.
   PlanningConfig planning = config_.planner;
   double slowest_mps = std::numeric_limits<double>::infinity();
   double slowest_radps = std::numeric_limits<double>::infinity();
+  double on_spot_deg = std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < robots.size(); ++r) {
+    if (!robots[r].ground) continue;
     const sim::PurePursuitConfig& controller = world.robot_config(r).controller;
-    if (robots[r].ground && controller.max_speed_mps > 0.0) slowest_mps = std::min(slowest_mps, controller.max_speed_mps);
-    if (robots[r].ground && controller.max_yaw_rate_radps > 0.0) {
-      slowest_radps = std::min(slowest_radps, controller.max_yaw_rate_radps);
-    }
+    if (controller.max_speed_mps > 0.0) slowest_mps = std::min(slowest_mps, controller.max_speed_mps);
+    if (controller.max_yaw_rate_radps > 0.0) slowest_radps = std::min(slowest_radps, controller.max_yaw_rate_radps);
+    on_spot_deg = std::min(on_spot_deg, std::max(controller.rotate_in_place_deg, sim::PurePursuit::kMinRotateInPlaceDeg));
   }
   planners::DeconflictionConfig& deconfliction = planning.deconfliction;
   if (slowest_mps < deconfliction.speed_m_per_s) deconfliction.speed_m_per_s = slowest_mps;
   if (std::isfinite(slowest_radps) && (deconfliction.yaw_rate_radps == 0.0 || slowest_radps < deconfliction.yaw_rate_radps)) {
     deconfliction.yaw_rate_radps = slowest_radps;
   }
+  if (on_spot_deg < deconfliction.turn_on_spot_deg) deconfliction.turn_on_spot_deg = on_spot_deg;
   if (config_.mission.kind != MissionKind::kScripted) {
-    logger->info("deconfliction: paths timed at {:.3f} m/s, start turns at {:.3f} rad/s (planner.deconfliction, "
-                 "slowed to the slowest planned robot's controller limits)",
-                 deconfliction.speed_m_per_s, deconfliction.yaw_rate_radps);
+    logger->info("deconfliction: paths timed at {:.3f} m/s, turns at {:.3f} rad/s, on the spot beyond {:.1f} deg "
+                 "(planner.deconfliction, held to the planned robots' controller limits)",
+                 deconfliction.speed_m_per_s, deconfliction.yaw_rate_radps, deconfliction.turn_on_spot_deg);
   }
   MissionPlanner mission(config_.mission, planning, mission_robots, logger);
   if (mission.planned()) {

@@ -81,6 +81,9 @@ struct PurePursuitConfig {
 // reached on the last segment within goal_tolerance_m once the robot can stop within one step.
 class PurePursuit {
  public:
+  // The least rotate_in_place_deg in effect: a proportional turn never reaches zero heading error exactly,
+  // and below this the robot would never drive off.
+  static constexpr double kMinRotateInPlaceDeg = 2.0;
   struct Command {
     double v_mps = 0.0;
     double omega_radps = 0.0;
