@@ -327,7 +327,8 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
     progress.update(++k);
   }
   progress.finish();
-  for (slam::Agent& agent : agents) agent.finish();
+  for (slam::Agent& agent : agents) link.send(agent.finish());  // the workers' last changes (threaded)
+  server.integrate_all(link);
   const central::ServerMergeReport& report = server.merge();
   server.write_outputs(out);
 

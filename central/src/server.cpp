@@ -200,7 +200,9 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
     return IntegrateStatus::kUnknownRobot;
   }
   RobotState& robot = it->second;
-  if (u.sequence <= robot.last_sequence) {
+  // The map changes an agent reports after its last frame (Agent::finish) carry that frame's sequence.
+  const bool map_changes = u.status == slam::FrameStatus::kMapChanges;
+  if (map_changes ? u.sequence < robot.last_sequence : u.sequence <= robot.last_sequence) {
     ++robot.counters.rejected;
     logger_->warn("{}: update {} does not advance past {} (duplicate or out of order); ignored", robot.spec.name,
                   u.sequence, robot.last_sequence);
@@ -211,8 +213,10 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
     logger_->warn("{}: update {} carries a non-finite pose; ignored", robot.spec.name, u.sequence);
     return IntegrateStatus::kInvalid;
   }
-  robot.last_sequence = u.sequence;
-  ++robot.counters.updates;
+  if (!map_changes) {
+    robot.last_sequence = u.sequence;
+    ++robot.counters.updates;
+  }
   if (u.status == slam::FrameStatus::kLost) ++robot.counters.lost;
   for (const slam::KeyframeSnapshot& kf : u.new_keyframes) take_keyframe(robot, kf);
   for (const slam::KeyframeSnapshot& kf : u.changed_keyframes) take_keyframe(robot, kf);

@@ -20,6 +20,7 @@ std::string to_string(FrameStatus status) {
     case FrameStatus::kNotInitialized: return "not_initialized";
     case FrameStatus::kLost: return "lost";
     case FrameStatus::kRejected: return "rejected";
+    case FrameStatus::kMapChanges: return "map_changes";
   }
   return "unknown";
 }
@@ -128,14 +129,22 @@ Agent& Agent::operator=(Agent&&) noexcept = default;
 
 const AgentConfig& Agent::config() const { return impl_->config; }
 
-void Agent::finish() {
+AgentUpdate Agent::finish() {
   Impl& s = *impl_;
   if (s.worker) s.worker->wait_idle();
+  if (s.dense_worker) s.dense_worker->wait_idle();
+  AgentUpdate u;
+  u.status = FrameStatus::kMapChanges;
+  u.robot_id = s.last_robot_id;
+  u.sequence = s.last_sequence;
+  u.t_ns = s.last_t_ns.value_or(0);
+  const std::lock_guard<std::mutex> lock(s.map_mutex);
   if (s.dense_worker) {
-    s.dense_worker->wait_idle();
-    const std::lock_guard<std::mutex> lock(s.map_mutex);
     for (const auto& [id, cloud] : s.dense_worker->take_ready()) s.insert_dense(id, cloud);
   }
+  u.tracking_state = s.tracker.state();
+  s.report_changes(u);
+  return u;
 }
 
 core::PointCloud Agent::dense_cloud() const {
@@ -165,6 +174,8 @@ AgentUpdate Agent::process(const core::SensorFrame& sensor) {
   u.robot_id = sensor.robot_id;
   u.sequence = sensor.sequence;
   u.t_ns = sensor.t_ns;
+  s.last_robot_id = sensor.robot_id;
+  s.last_sequence = sensor.sequence;
   if (s.gyro) s.buffer_imu(sensor.imu);  // a rejected frame's samples still belong to the next interval
   if (s.last_t_ns && sensor.t_ns <= *s.last_t_ns) {
     u.reason = "timestamp " + core::format_seconds(sensor.t_ns, 6) + " s does not advance past the previous " +

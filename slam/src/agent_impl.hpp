@@ -65,7 +65,9 @@ struct Agent::Impl {
   std::vector<FrameRecord> records;          // guarded by map_mutex
   std::vector<KeyframeId> new_keyframes;     // inserted during the current process() call
   std::set<KeyframeId> dense_changed;        // dense cloud to send with the next snapshot
-  std::optional<core::TimeNs> last_t_ns;
+  std::optional<core::TimeNs> last_t_ns;      // of the last frame accepted
+  int last_robot_id = 0;                     // of the last frame given to process() (finish()'s update)
+  std::int64_t last_sequence = 0;
   std::optional<GyroIntegrator> gyro;        // when the rig has a gyroscope and tracking.gyro is on
   std::vector<core::ImuSample> imu_buffer;   // samples after the last accepted frame
   std::unique_ptr<DenseWorker> dense_worker; // threaded mode only; stops before `dense` goes

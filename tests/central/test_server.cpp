@@ -189,6 +189,32 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
   EXPECT_THROW(server.robot_cloud(42), InputError);
 }
 
+// An agent's changes after its last frame (Agent::finish) carry that frame's sequence: accepted, not
+// counted as a frame, and the frames' order is kept.
+TEST(Server, MapChangesAfterTheLastFrameAreAccepted) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a, {}});
+  slam::AgentUpdate frame = update(0, 3, 1'000, Eigen::Isometry3d::Identity());
+  frame.new_keyframes.push_back(keyframe(0, 1'000, s.T_world_a, s.T_world_a, s.room, 0.0, 1.0));
+  ASSERT_EQ(server.integrate(frame), IntegrateStatus::kAccepted);
+  slam::AgentUpdate changes;
+  changes.robot_id = 0;
+  changes.sequence = 3;
+  changes.t_ns = 1'000;
+  changes.status = slam::FrameStatus::kMapChanges;
+  changes.new_keyframes.push_back(keyframe(1, 1'000, s.T_world_a, s.T_world_a, s.room, 1.0, 2.0));
+  EXPECT_EQ(server.integrate(changes), IntegrateStatus::kAccepted);
+  changes.sequence = 2;
+  EXPECT_EQ(server.integrate(changes), IntegrateStatus::kOutOfOrder);
+  EXPECT_EQ(server.integrate(update(0, 3, 1'100, Eigen::Isometry3d::Identity())), IntegrateStatus::kOutOfOrder);
+  EXPECT_EQ(server.integrate(update(0, 4, 1'200, Eigen::Isometry3d::Identity())), IntegrateStatus::kAccepted);
+  const RobotCounters& c = server.counters(0);
+  EXPECT_EQ(c.updates, 2u);
+  EXPECT_EQ(c.tracked, 2u);
+  EXPECT_EQ(server.robot_keyframes(0).size(), 2u);
+}
+
 TEST(Server, KeyframeCorrectionsAndRemovalMoveFramesAndClouds) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());

@@ -68,7 +68,7 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
       link.send(agent.process(*frame));
       server.integrate_all(link);
     }
-    agent.finish();
+    link.send(agent.finish());  // the workers' last changes (threaded)
     server.integrate_all(link);
     row.frames += static_cast<std::size_t>(sequence);
     if (sequence > 0) {

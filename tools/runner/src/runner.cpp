@@ -472,7 +472,8 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       next_progress_s = t_s + 1.0;
     }
   }
-  for (RobotRun& robot : robots) robot.agent->finish();
+  // The mapping workers' last changes (threaded mode) reach the server only through finish().
+  for (RobotRun& robot : robots) link.send(robot.agent->finish());
   server.integrate_all(link);
   const double run_wall_s = wall_s();
 

@@ -16,6 +16,8 @@
 // overlaps enough; until then its frames follow that prior and its cloud stays out of the merged map.
 // The server never includes the simulator: simulated and real robots look the same to it.
 //
+// An agent's map changes after its last frame (Agent::finish, status kMapChanges) carry that frame's
+// sequence: accepted without advancing it, and not counted as a frame's update.
 // Bad input is logged and counted, never thrown: an update from a robot not registered, one whose
 // sequence does not advance (duplicate or out of order), a pose or cloud with NaN (the NaN points are
 // dropped). Robots that never overlap keep the coarse result; later components that never overlap stay

@@ -94,8 +94,10 @@ enum class FrameStatus {
   kNotInitialized,  // no map yet and not enough depth to start one
   kLost,            // tracking failed (a later frame starts a new component)
   kRejected,        // bad input, not processed
+  kMapChanges,      // no frame: the map changes finish() reports after the last frame
 };
-std::string to_string(FrameStatus status);  // "tracked", "initialized", "not_initialized", "lost", "rejected"
+// "tracked", "initialized", "not_initialized", "lost", "rejected", "map_changes"
+std::string to_string(FrameStatus status);
 
 // A keyframe as the central unit sees it: pose (cam0), its map points, and its dense points.
 struct KeyframeSnapshot {
@@ -168,8 +170,12 @@ class Agent {
 
   AgentUpdate process(const core::SensorFrame& frame);
   // Threaded mode: waits until local mapping and dense mapping have handled every queued keyframe and
-  // inserts the last dense clouds. No-op otherwise.
-  void finish();
+  // inserts the last dense clouds. Returns the map changes not yet reported (the workers' last keyframe
+  // moves, culls and dense clouds, which process() would report with the next frame) as an update of
+  // status kMapChanges, with the robot id, sequence and time of the last frame given to process(); in
+  // inline mode process() has reported everything and the update holds no changes. Send it on like any
+  // other update, or the receiver's map misses the last keyframes' clouds.
+  AgentUpdate finish();
 
   // Every tracked frame, cam0, each pose relative to its reference keyframe so it follows the
   // keyframes' corrections (as ORB-SLAM saves trajectories).
