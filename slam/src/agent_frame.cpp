@@ -86,19 +86,31 @@ void Agent::Impl::track_and_map(Frame& frame, const std::optional<Eigen::Matrix3
     return;
   }
   KeyframeId reference = tracked.reference_keyframe;
-  if (tracked.insert_keyframe && !config.localization_only) insert_keyframe(frame, tracked, u, reference);
+  const bool is_keyframe =
+      tracked.insert_keyframe && !config.localization_only && insert_keyframe(frame, tracked, u, reference);
+  // The logged decision says what happened: a keyframe the policy wanted but the busy worker refused, or
+  // localisation-only mode, is no keyframe (the keyframe counts of the experiments come from it).
+  if (u.keyframe_decision && u.keyframe_decision->insert && !is_keyframe) {
+    u.keyframe_decision->insert = false;
+    u.keyframe_decision->reason += config.localization_only ? "; not inserted: localization only"
+                                                            : "; not inserted: local mapping busy";
+  }
   const std::optional<Eigen::Isometry3d> T_w_ref = map.keyframe_pose(reference);
   if (!T_w_ref) return;  // cannot happen: the reference is alive while the lock is held
-  records.push_back(FrameRecord{frame.t_ns, reference, T_w_ref->inverse() * *tracked.T_world_cam});
-  // Report the pose after inline mapping (a keyframe's pose may have moved in local BA).
-  u.T_world_cam = to_cam0(*map.keyframe_pose(reference) * records.back().T_ref_cam);
+  // A keyframe's own frame is its keyframe: it follows it through local BA and loop correction, which
+  // inline mapping has already applied (relative to the moved pose, the tracked one kept the old error).
+  const Eigen::Isometry3d T_ref_cam =
+      is_keyframe ? Eigen::Isometry3d::Identity() : Eigen::Isometry3d(T_w_ref->inverse() * *tracked.T_world_cam);
+  records.push_back(FrameRecord{frame.t_ns, reference, T_ref_cam});
+  // The pose after inline mapping.
+  u.T_world_cam = to_cam0(*T_w_ref * T_ref_cam);
 }
 
-void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference) {
+bool Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference) {
   if (worker && !tracked.initialized && worker->pending() >= config.max_mapping_queue) {
     const std::string why = "keyframe not inserted: local mapping busy";
     u.reason = u.reason.empty() ? why : u.reason + "; " + why;
-    return;
+    return false;
   }
   MappingReport report;
   const KeyframeId id = mapper.insert_keyframe(frame, tracker.component(), tracked.initialized, map, &report);
@@ -108,7 +120,7 @@ void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, A
   reference = id;
   if (worker) {
     worker->push(id);
-    return;
+    return true;
   }
   const Stopwatch watch;
   mapper.process(id, map, report);
@@ -117,6 +129,7 @@ void Agent::Impl::insert_keyframe(Frame& frame, const TrackingResult& tracked, A
   const Stopwatch loop_watch;
   close_loop_inline(id);
   u.timings.loop_ms = loop_watch.elapsed_ms();
+  return true;
 }
 
 void Agent::Impl::compute_bow(KeyframeId id) {

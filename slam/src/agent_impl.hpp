@@ -33,7 +33,8 @@ struct Agent::Impl {
   // IMU samples waiting for the next accepted frame, and the gyro rotation since the last accepted one.
   void buffer_imu(const std::vector<core::ImuSample>& samples);
   std::optional<Eigen::Matrix3d> gyro_rotation(core::TimeNs t_ns);
-  void insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference);
+  // Makes the frame a keyframe and maps it (inline mode); false when the busy worker refused it.
+  bool insert_keyframe(Frame& frame, const TrackingResult& tracked, AgentUpdate& u, KeyframeId& reference);
   void report_changes(AgentUpdate& u);
   // BoW of a new keyframe; loop closing at a keyframe (deterministic mode: called inline; threaded mode:
   // by the mapping worker without the map lock, which it takes itself) and its database entry.

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <vector>
 
@@ -152,6 +153,48 @@ TEST(AgentSynthetic, ThreadedModeTracks) {
   ASSERT_TRUE(result.ok());
   EXPECT_LT(result.stats.rmse, 0.01) << "ATE RMSE " << result.stats.rmse << " m";
   EXPECT_GE(run.stats.keyframes, 2u);
+}
+
+// Keyframes counted from the logged decisions are the keyframes the stream carries: a keyframe the policy
+// wanted but the busy worker refused is logged as not inserted.
+std::size_t decided_keyframes(const AgentRun& run) {
+  std::size_t n = 0;
+  for (const AgentUpdate& u : run.updates) n += u.keyframe_decision && u.keyframe_decision->insert ? 1 : 0;
+  return n;
+}
+std::size_t streamed_keyframes(const AgentRun& run) {
+  std::size_t n = 0;
+  for (const AgentUpdate& u : run.updates) n += u.status == FrameStatus::kInitialized ? 0 : u.new_keyframes.size();
+  return n;
+}
+
+TEST(AgentSynthetic, LoggedDecisionsAreTheKeyframesInserted) {
+  const auto& frames = sequence(core::SensorMode::kRgbd);
+  AgentConfig config;
+  config.threaded = true;
+  config.max_mapping_queue = 1;
+  config.keyframes.policy = KeyframePolicyKind::kFixedInterval;  // a keyframe wanted every few frames
+  config.keyframes.interval_frames = 1;
+  const AgentRun busy = run_agent(config, test::synthetic_rgbd_rig(), frames);
+  EXPECT_EQ(decided_keyframes(busy), streamed_keyframes(busy));
+  config.threaded = false;
+  const AgentRun inline_run = run_agent(config, test::synthetic_rgbd_rig(), frames);
+  EXPECT_EQ(decided_keyframes(inline_run), streamed_keyframes(inline_run));
+  EXPECT_GT(decided_keyframes(inline_run), 10u);
+}
+
+// A keyframe's own frame is the keyframe: the trajectory at a keyframe's time is the keyframe's pose,
+// moved by the local BA and loop corrections inline mapping applied right after it was inserted.
+TEST(AgentSynthetic, AKeyframesFrameFollowsItsKeyframe) {
+  const auto& frames = sequence(core::SensorMode::kRgbd);
+  const AgentRun run = run_agent(AgentConfig{}, test::synthetic_rgbd_rig(), frames);
+  ASSERT_GE(run.keyframes.size(), 2u);
+  for (const core::StampedPose& kf : run.keyframes) {
+    const auto frame = std::find_if(run.trajectory.begin(), run.trajectory.end(),
+                                    [&](const core::StampedPose& p) { return p.t_ns == kf.t_ns; });
+    ASSERT_NE(frame, run.trajectory.end());
+    EXPECT_TRUE(frame->T_world_body.isApprox(kf.T_world_body, 1e-12)) << "keyframe at " << kf.t_ns << " ns";
+  }
 }
 
 core::SensorFrame with_image(core::SensorFrame f, cv::Mat image) {
