@@ -108,9 +108,15 @@ void Agent::load_map(const std::filesystem::path& file) {
   const std::lock_guard<std::mutex> lock(s.map_mutex);
   FLEETSLAM_CHECK(!s.last_t_ns && s.map.keyframe_count() == 0, "Agent::load_map: only before the first frame");
   s.map = std::move(saved.map);
-  const std::uint64_t fingerprint = s.vocabulary ? vocabulary_fingerprint(*s.vocabulary) : 0;
-  if (s.vocabulary && fingerprint != saved.vocabulary_fingerprint) {
-    s.logger->info("map {}: BoW vectors recomputed with this agent's vocabulary", file.string());
+  // BoW vectors are recomputed whatever the file holds: they depend on the vocabulary and on
+  // place_recognition.levels_up, and the file records only the former (features grouped at another tree
+  // depth share no node with this agent's frames, and relocalisation silently never succeeded). The
+  // vectors read are replaced, so a file's own cannot disagree with the database either.
+  if (s.vocabulary) {
+    const std::uint64_t fingerprint = vocabulary_fingerprint(*s.vocabulary);
+    s.logger->info("map {}: BoW vectors computed with this agent's vocabulary{} (levels_up {})", file.string(),
+                   fingerprint == saved.vocabulary_fingerprint ? "" : ", not the map's",
+                   s.config.place_recognition.levels_up);
     for (const auto& entry : s.map.keyframes()) s.compute_bow(entry.first);
   }
   s.database.clear();

@@ -50,7 +50,10 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
     return result;
   }
   if (lost_before_first_frame_) {
+    // A loaded map's keyframes are from another session: this session's clocks start now (T_I was the
+    // first frame's absolute stamp, 1.3e9 s on TUM data, and forced a keyframe).
     lost_since_ns_ = frame.t_ns;
+    last_keyframe_t_ns_ = frame.t_ns;
     lost_before_first_frame_ = false;
   }
   // Lost: a few frames try the reference keyframe from the last good pose (a blurred frame or two should
@@ -116,9 +119,11 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
   }
   if (recovering) {
     result.lost_s = core::ns_to_seconds(frame.t_ns - lost_since_ns_);
-    result.reason = std::string(result.relocalized ? "relocalised" : "recovered") + " after " +
-                    std::to_string(lost_frames_ - 1) + " lost frame(s) (" + core::format_seconds(frame.t_ns - lost_since_ns_, 3) +
-                    " s)";
+    result.reason = std::string(result.relocalized ? "relocalised" : "recovered") +
+                    (in_loaded_map_ ? std::string(" in the loaded map")
+                                    : " after " + std::to_string(lost_frames_ - 1) + " lost frame(s) (" +
+                                          core::format_seconds(frame.t_ns - lost_since_ns_, 3) + " s)");
+    in_loaded_map_ = false;
     logger_->info("t={} {}", core::format_seconds(frame.t_ns, 6), result.reason);
   }
   relocalization_failing_since_ns_.reset();
@@ -220,6 +225,7 @@ void Tracker::start_in_map(int component) {
   component_ = component;
   lost_frames_ = config_.recovery_frames;  // the next frame counts one more: relocalisation at once
   lost_before_first_frame_ = true;
+  in_loaded_map_ = true;
   relocalization_failing_since_ns_.reset();
   last_frame_.reset();
   velocity_.reset();

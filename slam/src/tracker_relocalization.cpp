@@ -18,8 +18,16 @@ namespace fleetslam::slam {
 
 bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, TrackingResult& result) {
   const RelocalizationConfig& c = config_.relocalization;
-  if (w.frame.size() < 4 || inputs.vocabulary == nullptr || inputs.database == nullptr) {
-    result.reason = "relocalisation: no features";
+  if (!c.enabled) {
+    result.reason = "relocalisation disabled (relocalization.enabled)";
+    return false;
+  }
+  if (inputs.vocabulary == nullptr || inputs.database == nullptr) {
+    result.reason = "relocalisation: no place recognition (place_recognition.enabled)";
+    return false;
+  }
+  if (w.frame.size() < 4) {
+    result.reason = "relocalisation: " + std::to_string(w.frame.size()) + " features";
     return false;
   }
   const BowTransform bow = inputs.vocabulary->transform(w.frame.descriptors, inputs.bow_levels_up);

@@ -280,6 +280,50 @@ TEST(MapIo, LoadingWithAnotherVocabularyRecomputesBow) {
   EXPECT_EQ(agent.map_stats().keyframes, run.map.keyframe_count());
 }
 
+// The map's BoW vectors follow the loading agent's place_recognition.levels_up: grouped at another tree
+// depth they shared no node with its frames, and relocalisation silently never succeeded.
+TEST(MapIo, LoadingWithAnotherLevelsUpRelocalises) {
+  const FirstRun& run = first_run();
+  const fs::path file = test_dir() / "map.fsmap";
+  write_bytes(file, run.bytes);
+  AgentConfig config;
+  config.localization_only = true;
+  config.place_recognition.levels_up = AgentConfig{}.place_recognition.levels_up + 2;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  agent.load_map(file);
+  const AgentUpdate first = agent.process(sequence().front());
+  EXPECT_TRUE(first.relocalized) << first.reason;
+  EXPECT_NE(first.reason.find("relocalised in the loaded map"), std::string::npos) << first.reason;
+  // This session's clock starts at its first frame: T_I was that frame's absolute stamp.
+  ASSERT_TRUE(first.keyframe_decision.has_value());
+  for (const auto& [name, value] : first.keyframe_decision->factors) {
+    if (name == "T_I") {
+      EXPECT_LT(value, 1.0);
+    }
+  }
+  EXPECT_FALSE(first.keyframe_decision->insert) << "localisation only";
+  const Map map = agent.map_copy();
+  ASSERT_FALSE(map.keyframes().empty());
+  for (const auto& [id, kf] : map.keyframes()) {
+    EXPECT_FALSE(kf.bow_features.empty()) << "keyframe " << id;
+  }
+}
+
+// Localisation only with relocalisation switched off cannot place a frame, and says why.
+TEST(MapIo, LocalizationOnlyHonoursRelocalizationEnabled) {
+  const FirstRun& run = first_run();
+  const fs::path file = test_dir() / "map.fsmap";
+  write_bytes(file, run.bytes);
+  AgentConfig config;
+  config.localization_only = true;
+  config.tracking.relocalization.enabled = false;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  agent.load_map(file);
+  const AgentUpdate first = agent.process(sequence().front());
+  EXPECT_FALSE(first.has_pose());
+  EXPECT_NE(first.reason.find("relocalisation disabled"), std::string::npos) << first.reason;
+}
+
 TEST(MapIo, LocalizationOnlyWithoutAMapTracksNothing) {
   AgentConfig config;
   config.localization_only = true;

@@ -235,6 +235,7 @@ class Tracker {
   int component_ = -1;
   int lost_frames_ = 0;  // consecutive frames lost (the current one included)
   bool lost_before_first_frame_ = false;  // start_in_map: lost_since_ns_ is the first frame's stamp
+  bool in_loaded_map_ = false;            // start_in_map until the first frame is placed in the map
   core::TimeNs lost_since_ns_ = 0;  // first lost frame
   std::optional<core::TimeNs> relocalization_failing_since_ns_;  // first failed try on a frame with features
   // The last tracked frame, its pose held relative to its reference keyframe so that it follows
