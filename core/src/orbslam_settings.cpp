@@ -346,6 +346,14 @@ void read_stereo(const SettingsFile& f, const Layout& layout, OrbSlamSettings& s
     f.fail("Camera.type", "a KannalaBrandt8 stereo pair needs Camera2.* and Stereo.T_c1_c2 (File.version \"1.0\")");
   }
   if (!layout.v1) {
+    // Camera.* of such a file is the rectified camera the LEFT/RIGHT maps produce, not the images'
+    // own: read as a rectified pair, raw images were stereo-matched as if rectified.
+    for (const char* key : {"LEFT.K", "RIGHT.K", "LEFT.P", "RIGHT.P"}) {
+      if (f.has(key)) {
+        f.fail(key, "the old layout's rectification (LEFT.*/RIGHT.* K, D, R, P) is not supported: give the raw "
+                    "cameras as Camera1.*/Camera2.* with Stereo.T_c1_c2 (File.version \"1.0\")");
+      }
+    }
     rig.bf = required_positive(f, "Camera.bf", "baseline times fx");
     baseline_m = rig.bf / rig.cam0.fx();
   } else if (layout.rectified) {

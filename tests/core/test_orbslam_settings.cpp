@@ -272,6 +272,15 @@ TEST_F(OrbSlamSettingsTest, OldLayoutRectifiedStereoFromBf) {
   EXPECT_DOUBLE_EQ(s.th_depth, 35.0);  // an integer is accepted where a number is expected
 }
 
+// ORB-SLAM2's EuRoC.yaml: Camera.* is the rectified camera the LEFT/RIGHT maps produce, for raw images.
+// Read as a rectified pair, raw images were stereo-matched as if rectified: refused, naming the key.
+TEST_F(OrbSlamSettingsTest, OldLayoutRectificationMatricesAreRefused) {
+  const std::string left_k =
+      "LEFT.K: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [458.654, 0.0, 367.215, 0.0, 457.296, "
+      "248.375, 0.0, 0.0, 1.0]\n";
+  expect_error(kOldStereo + left_k, "LEFT.K", "rectification (LEFT.*/RIGHT.* K, D, R, P) is not supported");
+}
+
 TEST_F(OrbSlamSettingsTest, V1Stereo) {
   const OrbSlamSettings s = read(v1_stereo());
   EXPECT_EQ(s.rig.mode, SensorMode::kStereo);

@@ -11,9 +11,10 @@
 //    Stereo.b, Stereo.T_c1_c2, Stereo.ThDepth, RGBD.DepthMapFactor, IMU.T_b_c1.
 // Both share Camera.width/height/fps/RGB, Camera.newWidth/newHeight, IMU.NoiseGyro/NoiseAcc/GyroWalk/
 // AccWalk/Frequency and ORBextractor.*. Other keys (Viewer.*, System.*, ...) are ignored.
-// Not supported (an InputError says so): fisheye cameras (Camera.type "KannalaBrandt8"). The old
-// layout's LEFT.*/RIGHT.* rectification matrices are not read: such files describe raw images, so
-// rectify them with stereo_rectify.hpp from the raw calibration instead.
+// Not supported (an InputError says so): the old layout's LEFT.*/RIGHT.* rectification matrices (such
+// files describe raw images by the rectified camera; give the raw cameras in the File.version "1.0"
+// layout, which is rectified with stereo_rectify.hpp), and a KannalaBrandt8 stereo pair without
+// Camera2.* and Stereo.T_c1_c2.
 //
 // Frames: Stereo.T_c1_c2 is the pose of camera 2 in camera 1 (it maps camera-2 points into camera 1),
 // i.e. T_cam0_cam1; IMU.T_b_c1 (and Tbc) is the pose of camera 1 in the IMU body frame, T_body_cam0.
