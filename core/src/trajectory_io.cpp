@@ -244,6 +244,34 @@ bool header_names_nanoseconds(const std::string& header) {
   return header.find("[ns]") != std::string::npos || header.find("_ns") != std::string::npos;
 }
 
+// Whether the header names the quaternion w first ("q_RS_w, q_RS_x", "qw qx"), x first ("qx ... qw"), or
+// neither: columns "qw"/"q_w"/"q_<frames>_w" and the same for x.
+std::optional<bool> header_quaternion_w_first(const std::string& header) {
+  std::optional<std::size_t> w, x;
+  std::size_t index = 0;
+  std::string token;
+  const auto take = [&] {
+    if (token.empty()) return;
+    std::string t;
+    for (const char c : token) t += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const bool quaternion = t.size() >= 2 && t[0] == 'q' && (t.size() == 2 || t[1] == '_');
+    if (quaternion && t.back() == 'w' && !w) w = index;
+    if (quaternion && t.back() == 'x' && !x) x = index;
+    ++index;
+    token.clear();
+  };
+  for (const char c : header) {
+    if (std::isspace(static_cast<unsigned char>(c)) || c == ',' || c == '#' || c == '[' || c == ']') {
+      take();
+    } else {
+      token += c;
+    }
+  }
+  take();
+  if (!w || !x) return std::nullopt;
+  return *w < *x;
+}
+
 }  // namespace
 
 std::string to_string(TrajectoryFormat format) {
@@ -285,8 +313,17 @@ TrajectoryFormat detect_format(const FileText& file) {
   if (n == 12) return long_integer_stamp || (integer_stamp && ns_header) ? TrajectoryFormat::kEuroc
                                                                          : TrajectoryFormat::kKitti;
   // Space-separated 8 columns with ns stamps is ORB-SLAM3's TUM-ordered output: TUM reads those stamps.
-  if (n == 8) return integer_stamp && (comma_separated || ns_header) ? TrajectoryFormat::kEuroc
-                                                                     : TrajectoryFormat::kTum;
+  // A header that names the quaternion's columns decides their order ("# timestamp [ns] tx ty tz qx qy qz
+  // qw" is TUM's order whatever its stamps).
+  if (n == 8) {
+    const std::optional<bool> w_first = header_quaternion_w_first(reader.header());
+    if (w_first && *w_first && !integer_stamp) {
+      throw InputError(where, "the header puts the quaternion's w first (EuRoC's order) but the stamps are not "
+                              "integer nanoseconds: neither TUM nor EuRoC");
+    }
+    if (w_first) return *w_first ? TrajectoryFormat::kEuroc : TrajectoryFormat::kTum;
+    return integer_stamp && (comma_separated || ns_header) ? TrajectoryFormat::kEuroc : TrajectoryFormat::kTum;
+  }
   if (n > 8 && integer_stamp) return TrajectoryFormat::kEuroc;
   throw InputError(where, "cannot tell the trajectory format from " + std::to_string(fields.size()) +
                               " columns (TUM has 8, EuRoC 8 or more with integer ns stamps, KITTI 12)");

@@ -138,6 +138,23 @@ TEST(TrajectoryDetect, SpaceSeparatedNanosecondStampsAreTumInNanoseconds) {
 
 // A simulated sequence's clock starts at 0: ORB-SLAM3's EuRoC output of it has short nanosecond stamps.
 // Whole numbers 50 ms apart in nanoseconds would be 1.6 years apart in seconds: the file counts in ns.
+// A header naming the quaternion's columns decides their order: a "[ns]" in a TUM-ordered header made the
+// file EuRoC and its quaternion read w first.
+TEST(TrajectoryDetect, HeaderColumnNamesDecideTheQuaternionOrder) {
+  const fs::path dir = test_dir();
+  const std::string row = "1403715274312143104 1 2 3 0.1 0.2 0.3 0.9\n";
+  const fs::path tum = write_file(dir / "tum_ns.txt", "# timestamp [ns] tx ty tz qx qy qz qw\n" + row);
+  EXPECT_EQ(detect_trajectory_format(tum), TrajectoryFormat::kTum);
+  const fs::path plain = write_file(dir / "plain.txt", row);
+  EXPECT_TRUE(read_trajectory(tum).at(0).T_world_body.isApprox(read_trajectory(plain).at(0).T_world_body, 1e-15));
+  const fs::path euroc = write_file(dir / "euroc_spaces.txt", "#timestamp p_RS_R_x p_RS_R_y p_RS_R_z q_RS_w q_RS_x q_RS_y q_RS_z\n" + row);
+  EXPECT_EQ(detect_trajectory_format(euroc), TrajectoryFormat::kEuroc);
+  const Eigen::Quaterniond q(read_trajectory(euroc).at(0).T_world_body.linear());
+  EXPECT_NEAR(std::abs(q.w()), 0.1 / Eigen::Vector4d(0.1, 0.2, 0.3, 0.9).norm(), 1e-12);
+  const fs::path seconds = write_file(dir / "w_first_seconds.txt", "# t x y z qw qx qy qz\n1.5 1 2 3 1 0 0 0\n");
+  EXPECT_THROW(detect_trajectory_format(seconds), InputError);
+}
+
 TEST(TrajectoryDetect, ShortNanosecondStampsOfASimulatedClockAreNanoseconds) {
   const fs::path path = write_file(test_dir() / "f_sim.txt",
                                    "0.000000 0 0 0 0 0 0 1\n"
