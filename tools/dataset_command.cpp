@@ -23,6 +23,7 @@ struct DatasetOptions {
   std::string path;
   std::string format;  // empty: detect
   std::string groundtruth;
+  bool groundtruth_body = false;
   std::string calibration;
   bool json = false;
   bool check = false;
@@ -37,6 +38,7 @@ struct DatasetOptions {
 std::unique_ptr<core::FrameSource> open_source(const DatasetOptions& options, core::DatasetConfig config,
                                                const core::Logger& logger) {
   config.groundtruth_file = options.groundtruth;
+  config.groundtruth_in_body_frame = options.groundtruth_body;
   if (!options.calibration.empty()) {
     config.rig = core::read_orbslam_settings(options.calibration).rig;
     config.rig_source = options.calibration;
@@ -204,6 +206,9 @@ void add_source_options(CLI::App& command, DatasetOptions& options) {
       ->transform(dataset_format_check());
   command.add_option("--groundtruth", options.groundtruth,
                      "Ground-truth file of camera poses (TUM, EuRoC csv or KITTI) instead of the dataset's own");
+  command.add_flag("--groundtruth-body", options.groundtruth_body,
+                   "The --groundtruth file holds body (IMU) poses, as EuRoC's data.csv: turned into camera poses "
+                   "by the calibration's body-to-camera transform");
   command.add_option("--calibration", options.calibration,
                      "ORB-SLAM settings file to use instead of the dataset's calibration (needed for TUM-VI "
                      "equidistant cameras and TUM folders of unknown cameras)");

@@ -58,6 +58,7 @@ struct ReplayOptions {
   std::string config;
   std::string calibration;
   std::string groundtruth;
+  bool groundtruth_body = false;
   std::string out = "replay_out";
   std::int64_t max_frames = -1;
   int split = 1;
@@ -91,6 +92,7 @@ std::unique_ptr<core::FrameSource> open_source(const ReplayOptions& o,
                                                const core::Logger& logger) {
   core::DatasetConfig config;
   config.groundtruth_file = o.groundtruth;
+  config.groundtruth_in_body_frame = o.groundtruth_body;
   config.load_imu = true;  // the agent predicts rotations with the gyroscope (tracking.gyro)
   config.stereo = o.sensor != "rgbd";
   config.skip_unreadable_frames = o.skip_unreadable;
@@ -182,7 +184,8 @@ class RunLog {
 core::Trajectory groundtruth(const ReplayOptions& o, const core::FrameSource& source,
                              const core::Trajectory& per_frame, std::string& used) {
   const std::string& file = source.info().groundtruth_file;
-  const bool camera_poses = !o.groundtruth.empty() || source.info().format == core::DatasetFormat::kTumRgbd;
+  const bool camera_poses =
+      (!o.groundtruth.empty() && !o.groundtruth_body) || source.info().format == core::DatasetFormat::kTumRgbd;
   if (!file.empty() && camera_poses) {
     used = file;
     core::TrajectoryReadOptions options;
@@ -488,6 +491,9 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--calibration", options->calibration,
                   "Camera settings in the ORB-SLAM format (cameras, ORBextractor, ThDepth)");
   cmd->add_option("--groundtruth", options->groundtruth, "Ground-truth camera poses to use instead of the dataset's");
+  cmd->add_flag("--groundtruth-body", options->groundtruth_body,
+                "The --groundtruth file holds body (IMU) poses, as EuRoC's data.csv: turned into camera poses by the "
+                "calibration's body-to-camera transform");
   cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
   cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
       ->check(CLI::NonNegativeNumber);

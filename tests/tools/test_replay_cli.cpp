@@ -17,6 +17,7 @@
 
 #include "cli_test_util.hpp"
 
+#include "fleetslam/core/euroc.hpp"
 #include "fleetslam/core/point_cloud.hpp"
 #include "fleetslam/core/trajectory.hpp"
 
@@ -59,6 +60,37 @@ TEST(ReplayCli, TumExcerptWritesEveryOutput) {
   EXPECT_EQ(metrics["ate"]["pairs"], 30);
   EXPECT_LT(metrics["ate"]["ate_m"]["rmse"].get<double>(), 0.05);
   EXPECT_GT(metrics["tracking_ms"]["median"].get<double>(), 0.0);
+}
+
+// EuRoC's own data.csv holds body (IMU) poses: --groundtruth-body turns them into camera poses by the
+// calibration's T_BS, and they agree with the excerpt's left-camera file; read as camera poses they do not.
+TEST(ReplayCli, GroundTruthOfBodyPosesBecomesCameraPoses) {
+  const fs::path euroc = kData / "euroc" / "V1_01_easy_micro";
+  if (!fs::exists(euroc)) GTEST_SKIP() << "no EuRoC excerpt at " << euroc;
+  const fs::path dir = test_dir();
+  // The excerpt has camera poses only: body poses made from them with cam0's T_BS.
+  const Eigen::Isometry3d T_body_cam = core::read_euroc_T_BS(euroc / "mav0" / "cam0" / "sensor.yaml");
+  core::Trajectory bodies = core::read_trajectory(euroc / "groundtruth_leftcam_tum.txt");
+  for (core::StampedPose& p : bodies) p.T_world_body = p.T_world_body * T_body_cam.inverse();
+  core::write_trajectory(dir / "body.csv", bodies, core::TrajectoryFormat::kEuroc);
+  const std::string body = " --groundtruth '" + (dir / "body.csv").string() + "'";
+  const auto per_frame_truth = [&](const std::string& name, const std::string& options) {
+    const RunResult r = run("-q replay '" + euroc.string() + "' --format euroc --sensor stereo --max-frames 30" +
+                            options + " --out '" + (dir / name).string() + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return core::read_trajectory(dir / name / "groundtruth.txt");
+  };
+  const core::Trajectory camera =
+      per_frame_truth("camera", " --groundtruth '" + (euroc / "groundtruth_leftcam_tum.txt").string() + "'");
+  const core::Trajectory from_body = per_frame_truth("body", body + " --groundtruth-body");
+  const core::Trajectory as_camera = per_frame_truth("as_camera", body);
+  ASSERT_FALSE(camera.empty());
+  ASSERT_EQ(from_body.size(), camera.size());
+  ASSERT_EQ(as_camera.size(), camera.size());
+  for (std::size_t i = 0; i < camera.size(); ++i) {
+    EXPECT_LT((from_body[i].T_world_body.translation() - camera[i].T_world_body.translation()).norm(), 0.002) << i;
+  }
+  EXPECT_GT((as_camera[0].T_world_body.translation() - camera[0].T_world_body.translation()).norm(), 0.03);
 }
 
 TEST(ReplayCli, ConfigOverridesAndIsWrittenBack) {
