@@ -170,6 +170,11 @@ std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, Datas
   if (stereo) {
     const std::vector<ImageRow> right = read_camera_rows(mav0, "cam1", config, sequence.info, logger);
     sequence.entries = pair_stereo(left, right, sequence.info, logger);
+    if (sequence.entries.empty() && !left.empty() && !right.empty()) {
+      throw InputError((mav0 / "cam1" / "data.csv").string(),
+                       "no image shares its timestamp with one of cam0/data.csv (stereo pairs need identical stamps): "
+                       "no stereo frames; read cam0 alone (monocular) or fix the stamps");
+    }
   } else {
     for (const ImageRow& row : left) sequence.entries.push_back(mono_entry(row));
   }

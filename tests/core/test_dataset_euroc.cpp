@@ -342,6 +342,17 @@ TEST(Euroc, SixteenBitImagesOfTumViReadAsEightBitGray) {
 
 // ---- bad input --------------------------------------------------------------------------------------
 
+// cam1 stamps all 1 us off cam0's: no stereo pair, an error naming cam1/data.csv (it was an empty stream).
+TEST(Euroc, StereoWithoutOnePairIsAnInputError) {
+  TempDir dir;
+  write_sequence(dir.path(), make_frames(6));
+  const auto cam1_csv = dir / "mav0" / "cam1" / "data.csv";
+  std::string shifted = "#timestamp [ns],filename\n";
+  for (int i = 0; i < kFrames; ++i) shifted += std::to_string(kT0 + i * kPeriod + 1000) + "," + std::to_string(kT0 + i * kPeriod) + ".png\n";
+  test::write_file(cam1_csv, shifted);
+  expect_input_error([&] { open(dir.path()); }, {"cam1/data.csv", "no image shares its timestamp"});
+}
+
 class EurocBadInput : public ::testing::Test {
  protected:
   void SetUp() override { write_sequence(dir.path(), make_frames(13)); }
