@@ -241,7 +241,12 @@ RegistrationResult GicpRegistration::align(const core::PointCloud& source, const
   const std::vector<Eigen::Vector3f>& source_points = source_set.points;
   const std::vector<Eigen::Vector3f>& target_points = target_set.points;
   RegistrationResult result;
-  if (source_points.size() < kMinPoints || target_points.size() < kMinPoints || !T_target_source_guess.matrix().allFinite()) {
+  // PCL's GICP needs covariance_neighbours points in each cloud for their covariances: with fewer it only
+  // logs an error and then reads covariances it never computed.
+  const std::size_t min_points = config_.backend == RegistrationBackend::kPcl
+                                     ? std::max(kMinPoints, static_cast<std::size_t>(std::max(0, config_.covariance_neighbours)) + 1)
+                                     : kMinPoints;
+  if (source_points.size() < min_points || target_points.size() < min_points || !T_target_source_guess.matrix().allFinite()) {
     result.T_target_source = T_target_source_guess;
     result.source_points = source_points.size();
     result.target_points = target_points.size();

@@ -111,6 +111,25 @@ TEST(GicpRegistration, FailuresAreInTheResult) {
   EXPECT_EQ(result.source_points, 1u);
   EXPECT_EQ(gicp.align(room, core::PointCloud{}).status, "too few points");
 
+  // PCL's backend needs covariance_neighbours points in each set (with fewer it read covariances it never
+  // computed): 15 points against k = 20 are too few there, not for the native one.
+  core::PointCloud fifteen;
+  for (int i = 0; i < 15; ++i) fifteen.push_back({0.1f * static_cast<float>(i % 5), 0.1f * static_cast<float>(i / 5), 0.0f});
+  RegistrationConfig pcl;
+  pcl.backend = RegistrationBackend::kPcl;
+  pcl.voxel_size_m = 0.0;
+  EXPECT_EQ(GicpRegistration(pcl).align(fifteen, fifteen).status, "too few points");
+  pcl.backend = RegistrationBackend::kNative;
+  EXPECT_NE(GicpRegistration(pcl).align(fifteen, fifteen).status, "too few points");
+  // Out of iterations is no convergence, whatever PCL's own flag says.
+  RegistrationConfig one_step;
+  one_step.backend = RegistrationBackend::kPcl;
+  one_step.max_iterations = 1;
+  const core::PointCloud moved = core::transformed(room, synthetic::pose(0.0, 0.0, 5.0, Eigen::Vector3d(0.1, 0, 0)));
+  result = GicpRegistration(one_step).align(moved, room);
+  EXPECT_FALSE(result.converged);
+  EXPECT_EQ(result.status, "max iterations");
+
   // Far apart: no correspondence within the distance.
   const core::PointCloud far = core::transformed(room, synthetic::pose(0, 0, 0, Eigen::Vector3d(50, 0, 0)));
   result = gicp.align(far, room);

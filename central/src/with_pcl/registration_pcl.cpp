@@ -41,8 +41,10 @@ PclAlignment align_with_pcl(const std::vector<Eigen::Vector3f>& source, const st
   gicp.align(aligned, T_target_source_guess.matrix().cast<float>());
   PclAlignment result;
   result.T_target_source.matrix() = gicp.getFinalTransformation().cast<double>();
-  result.converged = gicp.hasConverged();
   result.iterations = gicp.iterations();
+  // PCL reports convergence also when it ran out of iterations (gicp.hpp: nr_iterations_ >= max_iterations_
+  // sets converged_).
+  result.converged = gicp.hasConverged() && result.iterations < config.max_iterations;
   return result;
 }
 
