@@ -64,6 +64,15 @@ TEST(Criteria, EachCriterionJudgesItsValue) {
   EXPECT_TRUE(passed("goals_reached_share", "a"));
   EXPECT_FALSE(passed("goals_reached_share", "b"));
   EXPECT_EQ((*find(v, "goals_reached_share", "b"))["note"], "3 of 4");
+  // A planned robot given no goal passes vacuously, and the note says so.
+  nlohmann::json no_goals = metrics();
+  no_goals["robots"][0]["goals_total"] = 0;
+  no_goals["robots"][0]["goals_reached"] = 0;
+  const nlohmann::json no_goals_verdict = judge(c, no_goals);
+  const nlohmann::json* vacuous = find(no_goals_verdict, "goals_reached_share", "a");
+  ASSERT_NE(vacuous, nullptr);
+  EXPECT_TRUE((*vacuous)["passed"].get<bool>());
+  EXPECT_EQ((*vacuous)["note"], "no goals given");
   EXPECT_TRUE(passed("map_accuracy_mean_m", ""));
   EXPECT_FALSE(passed("map_accuracy_p95_m", ""));
   EXPECT_TRUE(passed("map_completeness", ""));

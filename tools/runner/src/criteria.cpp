@@ -68,6 +68,8 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
       if (total && reached) share = *total > 0 ? *reached / *total : 1.0;
       std::string note;
       if (total && reached) note = std::to_string(static_cast<long>(*reached)) + " of " + std::to_string(static_cast<long>(*total));
+      // Vacuous (exploration may leave a robot no frontier), but said: coverage and lost_share judge the rest.
+      if (total && *total == 0.0) note = "no goals given";
       verdict.add("goals_reached_share", name, share, 1.0, false, note);
     }
   }
