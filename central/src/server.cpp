@@ -208,19 +208,20 @@ IntegrateStatus Server::integrate(const slam::AgentUpdate& u) {
                   u.sequence, robot.last_sequence);
     return IntegrateStatus::kOutOfOrder;
   }
-  if (u.T_world_cam && !finite_pose(*u.T_world_cam)) {
-    ++robot.counters.rejected;
-    logger_->warn("{}: update {} carries a non-finite pose; ignored", robot.spec.name, u.sequence);
-    return IntegrateStatus::kInvalid;
-  }
-  if (!map_changes) {
-    robot.last_sequence = u.sequence;
-    ++robot.counters.updates;
-  }
-  if (u.status == slam::FrameStatus::kLost) ++robot.counters.lost;
+  // The agent sends each keyframe change once: an update whose frame pose is not finite still delivers
+  // them (dropping them lost dense clouds for good, and kept culled keyframes whose points had moved on).
+  const bool bad_pose = u.T_world_cam && !finite_pose(*u.T_world_cam);
+  if (!map_changes) robot.last_sequence = u.sequence;
   for (const slam::KeyframeSnapshot& kf : u.new_keyframes) take_keyframe(robot, kf);
   for (const slam::KeyframeSnapshot& kf : u.changed_keyframes) take_keyframe(robot, kf);
   for (slam::KeyframeId id : u.removed_keyframes) retire_keyframe(robot, id);
+  if (bad_pose) {
+    ++robot.counters.rejected;
+    logger_->warn("{}: update {} carries a non-finite pose; its frame is ignored", robot.spec.name, u.sequence);
+    return IntegrateStatus::kInvalid;
+  }
+  if (!map_changes) ++robot.counters.updates;
+  if (u.status == slam::FrameStatus::kLost) ++robot.counters.lost;
   const auto newest = robot.newest.find(u.component);
   if (u.T_world_cam && newest != robot.newest.end()) {
     const std::optional<Eigen::Isometry3d> T_robot_ref = keyframe_pose(robot, newest->second);

@@ -166,7 +166,11 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
   EXPECT_EQ(server.integrate(update(0, 2, 900, Eigen::Isometry3d::Identity())), IntegrateStatus::kOutOfOrder);
   Eigen::Isometry3d nan_pose = Eigen::Isometry3d::Identity();
   nan_pose.translation().x() = NAN;
-  EXPECT_EQ(server.integrate(update(0, 4, 2'000, nan_pose)), IntegrateStatus::kInvalid);
+  // A non-finite frame pose: the frame is ignored, its keyframe changes (sent once) still apply.
+  slam::AgentUpdate nan_frame = update(0, 4, 2'000, nan_pose);
+  nan_frame.new_keyframes.push_back(keyframe(5, 2'000, s.T_world_a, s.T_world_a, s.room, 2.0, 3.0));
+  EXPECT_EQ(server.integrate(nan_frame), IntegrateStatus::kInvalid);
+  EXPECT_EQ(server.integrate(nan_frame), IntegrateStatus::kOutOfOrder) << "its sequence was taken";
   // A keyframe of a restarted map (component 1): kept as a submap of its own.
   slam::AgentUpdate restarted = update(0, 5, 3'000, Eigen::Isometry3d::Identity());
   restarted.component = 1;
@@ -176,11 +180,11 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
 
   const RobotCounters& c = server.counters(0);
   EXPECT_EQ(c.updates, 2u);
-  EXPECT_EQ(c.rejected, 3u);
+  EXPECT_EQ(c.rejected, 4u);
   EXPECT_EQ(c.nan_points, 1u);
   EXPECT_EQ(c.other_component_keyframes, 1u);
-  EXPECT_EQ(server.robot_keyframes(0).size(), 2u);
-  EXPECT_EQ(server.robot_keyframes(0, 0).size(), 1u);
+  EXPECT_EQ(server.robot_keyframes(0).size(), 3u);
+  EXPECT_EQ(server.robot_keyframes(0, 0).size(), 2u);
   EXPECT_EQ(server.robot_keyframes(0, 1).size(), 1u);
   const core::PointCloud cloud = server.robot_cloud(0);
   for (const Eigen::Vector3f& p : cloud.points) EXPECT_TRUE(p.allFinite());

@@ -20,7 +20,7 @@
 // sequence: accepted without advancing it, and not counted as a frame's update.
 // Bad input is logged and counted, never thrown: an update from a robot not registered, one whose
 // sequence does not advance (duplicate or out of order), a pose or cloud with NaN (the NaN points are
-// dropped). Robots that never overlap keep the coarse result; later components that never overlap stay
+// dropped; an update whose frame pose is not finite still delivers its keyframe changes). Robots that never overlap keep the coarse result; later components that never overlap stay
 // out of the merged map. Not thread-safe: one thread integrates and merges (agents may send from their own
 // threads through the Link).
 
