@@ -122,6 +122,24 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   EXPECT_NE(read_text(out / "report.html").find("FAIL"), std::string::npos);
 }
 
+// A robot's frame is cam0 of the frame that started its map: a rig that first looks at the floor from
+// closer than the depth range (no map) and then rises 1 m is judged from where its map started. Its prior
+// was the first frame's pose, and the world-frame ATE of the reference robot was 0.45 m.
+TEST(RunCli, ARobotWhoseMapStartsLateIsPlacedFromThatFrame) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "late.yaml")
+      << "scene: '" << kOfficeScene.string() << "'\nduration_s: 3\nseed: 3\nrobots:\n"
+      << "  - name: rig\n    type: free_rig\n    camera: {width: 640, height: 480, fovy_deg: 45, rate_hz: 30, depth: true}\n"
+      << "    waypoints: [{t_s: 0, x: 3.0, y: 2.5, z: 0.12, pitch_deg: 90}, {t_s: 1.0, x: 3.0, y: 2.5, z: 0.12, pitch_deg: 90},"
+      << " {t_s: 2.0, x: 3.0, y: 2.5, z: 1.2}, {t_s: 3.0, x: 3.2, y: 2.5, z: 1.2}]\n";
+  const fs::path out = dir / "run";
+  const RunResult r = run("-q run '" + (dir / "late.yaml").string() + "' --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json rig = nlohmann::json::parse(read_text(out / "metrics.json"))["robots"][0];
+  EXPECT_LT(rig["tracked"].get<int>(), rig["frames"].get<int>() - 10) << "the map must start late for this test";
+  EXPECT_LT(rig["ate_world_m"]["rmse"].get<double>(), 0.03) << rig.dump();
+}
+
 // --seed replaces the scenario's seed before the robots derive theirs from it: the simulation's noise
 // follows it, and a robot with a seed of its own keeps that.
 TEST(RunCli, SeedReachesTheRobots) {

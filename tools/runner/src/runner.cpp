@@ -389,16 +389,8 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     std::vector<core::SensorFrame> frames = world.step();
     for (core::SensorFrame& frame : frames) {
       RobotRun& robot = robots.at(static_cast<std::size_t>(frame.robot_id));
-      if (!robot.T_world_robot_true) {
-        FLEETSLAM_CHECK(frame.T_world_cam_gt.has_value(), "simulated frames carry ground truth");
-        robot.T_world_robot_true = *frame.T_world_cam_gt;
-        robot.T_world_robot_prior =
-            frame.robot_id == 0 ? *frame.T_world_cam_gt : perturbed_prior(*frame.T_world_cam_gt, options_.prior_error);
-        const sim::BodyCylinder body = world.body_cylinder(static_cast<std::size_t>(frame.robot_id));
-        server.add_robot(central::RobotSpec{frame.robot_id, robot.name, robot.T_world_robot_prior,
-                                            central::RobotBody{robot.T_body_cam.inverse(), body.radius_m, body.z_min_m, body.z_max_m}});
-      }
-      if (frame.T_world_cam_gt) robot.groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
+      FLEETSLAM_CHECK(frame.T_world_cam_gt.has_value(), "simulated frames carry ground truth");
+      robot.groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
     }
     std::vector<slam::AgentUpdate> updates = process_frames(robots, frames, options_.threads);
     for (std::size_t f = 0; f < frames.size(); ++f) {
@@ -406,6 +398,16 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       RobotRun& robot = robots.at(static_cast<std::size_t>(frame.robot_id));
       const double t_s = core::ns_to_seconds(frame.t_ns);
       slam::AgentUpdate& update = updates[f];
+      // The robot's frame is its agent's world: cam0 of the frame that started its map, which need not be
+      // its first frame (one without texture or depth starts none). Its prior and truth are that frame's.
+      if (!robot.T_world_robot_true && update.status == slam::FrameStatus::kInitialized) {
+        robot.T_world_robot_true = *frame.T_world_cam_gt;
+        robot.T_world_robot_prior =
+            frame.robot_id == 0 ? *frame.T_world_cam_gt : perturbed_prior(*frame.T_world_cam_gt, options_.prior_error);
+        const sim::BodyCylinder body = world.body_cylinder(static_cast<std::size_t>(frame.robot_id));
+        server.add_robot(central::RobotSpec{frame.robot_id, robot.name, robot.T_world_robot_prior,
+                                            central::RobotBody{robot.T_body_cam.inverse(), body.radius_m, body.z_min_m, body.z_max_m}});
+      }
       if (update.T_world_cam) {
         robot.T_map_cam = *update.T_world_cam;
         robot.map_component = update.component;
@@ -426,7 +428,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       robot.dense_ms.push_back(update.timings.dense_ms);
       robot.loop_ms.push_back(update.timings.loop_ms);
       robot.total_ms.push_back(update.timings.total_ms);
-      link.send(std::move(update));
+      if (robot.T_world_robot_true) link.send(std::move(update));  // before its map starts, nothing to send
     }
     server.integrate_all(link);
     const double t_s = core::ns_to_seconds(world.time_ns());
@@ -473,7 +475,10 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     }
   }
   // The mapping workers' last changes (threaded mode) reach the server only through finish().
-  for (RobotRun& robot : robots) link.send(robot.agent->finish());
+  for (RobotRun& robot : robots) {
+    slam::AgentUpdate last = robot.agent->finish();
+    if (robot.T_world_robot_true) link.send(std::move(last));
+  }
   server.integrate_all(link);
   const double run_wall_s = wall_s();
 
