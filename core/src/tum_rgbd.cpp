@@ -190,6 +190,13 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
   sequence.info.root = root;
   sequence.image_kind = ImageKind::kColour;
   sequence.rig = tum_rig(root, config, sequence.info);
+  // The Kinect's accelerometer is all a TUM RGB-D sequence has: a calibration's IMU (one written for
+  // another sensor) would have the agent integrate its zero gyro readings as rotations.
+  if (sequence.rig.imu) {
+    logger->warn("{}: the calibration ({}) describes an IMU, but a TUM RGB-D sequence has no gyroscope: not used",
+                 root.string(), sequence.info.calibration_source);
+    sequence.rig.imu.reset();
+  }
 
   std::vector<ImageRow> rgb = read_image_list(root / "rgb.txt", StampUnit::kSeconds, root, "RGB image list");
   sequence.info.listed_frames = rgb.size();

@@ -290,6 +290,11 @@ TEST(TumRgbd, GivenRigAndDepthScaleWin) {
   ASSERT_TRUE(frame.has_value());
   const float w = written[0].depth_m.at<float>(0, 1);
   EXPECT_NEAR(static_cast<double>(frame->depth_m.at<float>(0, 1)), 2.0 * static_cast<double>(w), 2.0 / 5000.0);
+  // A given rig's IMU is dropped: the sequence has an accelerometer only, no gyroscope.
+  rig.imu = ImuNoise{};
+  rig.T_body_cam0 = Eigen::Isometry3d::Identity();
+  config.rig = rig;
+  EXPECT_FALSE(open(dir.path(), config)->rig().imu.has_value());
 }
 
 TEST(DatasetConfig, ReadsFromYamlWithLimits) {
