@@ -1,6 +1,7 @@
 // The FrameSource over an indexed recording: selection, then one frame decoded per next().
 
 #include <algorithm>
+#include <optional>
 #include <system_error>
 
 #include <opencv2/core.hpp>
@@ -52,15 +53,20 @@ cv::Mat decode_depth(const ImageRef& ref, double depth_scale) {
 std::vector<FrameEntry> select_entries(std::vector<FrameEntry> entries, const DatasetConfig& config) {
   if (entries.empty()) return entries;
   const TimeNs t_first = entries.front().t_ns;
+  // Compared in nanoseconds: a frame 150000000 ns after the first is 0.15000000000000002 s in seconds,
+  // past a stop offset of 0.15, and was dropped.
+  const TimeNs start_ns = seconds_to_ns(config.start_offset_s);
+  const bool has_stop = config.stop_offset_s >= 0.0;
+  const TimeNs stop_ns = has_stop ? seconds_to_ns(config.stop_offset_s) : 0;
   const auto n = static_cast<std::int64_t>(entries.size());
   const std::int64_t stop = config.stop_index < 0 ? n : std::min(config.stop_index, n);
   std::vector<FrameEntry> selected;
   std::int64_t kept = 0;
   for (std::int64_t i = std::clamp<std::int64_t>(config.start_index, 0, n); i < stop; ++i) {
     FrameEntry& entry = entries[static_cast<std::size_t>(i)];
-    const double offset_s = ns_to_seconds(entry.t_ns - t_first);
-    if (offset_s < config.start_offset_s) continue;
-    if (config.stop_offset_s >= 0.0 && offset_s > config.stop_offset_s) break;
+    const TimeNs offset_ns = entry.t_ns - t_first;
+    if (offset_ns < start_ns) continue;
+    if (has_stop && offset_ns > stop_ns) break;
     if (kept++ % config.stride == 0) selected.push_back(std::move(entry));
   }
   return selected;

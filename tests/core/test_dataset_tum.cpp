@@ -220,6 +220,21 @@ TEST(TumRgbd, SelectionByIndexTimeAndStride) {
   EXPECT_EQ(frames[0].t_ns, stamp(2));
 }
 
+// A frame exactly at the stop offset is kept: 150000000 ns is 0.15000000000000002 s in doubles, and the
+// comparison in seconds dropped it.
+TEST(TumRgbd, AFrameExactlyAtTheStopOffsetIsKept) {
+  TempDir dir;
+  std::vector<SensorFrame> frames = make_frames(6);
+  for (std::size_t i = 0; i < frames.size(); ++i) frames[i].t_ns = 1'000'000'000 + static_cast<TimeNs>(i) * 50'000'000;
+  write_sequence(dir.path(), frames);
+  DatasetConfig config;
+  config.stop_offset_s = 0.15;
+  config.load_imu = false;
+  const std::vector<SensorFrame> read = read_all(*open(dir.path(), config));
+  ASSERT_EQ(read.size(), 4u);  // 0, 50, 100 and 150 ms
+  EXPECT_EQ(read.back().t_ns, 1'150'000'000);
+}
+
 TEST(TumRgbd, WithoutImagesFramesCarryStampsPosesAndImu) {
   TempDir dir;
   write_sequence(dir.path(), make_frames(3));
