@@ -443,6 +443,8 @@ SavedMap MapAccess::decode(const std::string& data, const std::string& where) {
 
 // What the rest of the agent relies on without checking: links both ways, indices within the frames,
 // references to live keyframes, levels within the pyramid.
+constexpr int kMaxPyramidLevels = 64;
+
 std::string MapAccess::validate(const Map& m) {
   for (const auto& [id, kf] : m.keyframes_) {
     const std::string at = "keyframe " + std::to_string(id);
@@ -450,8 +452,17 @@ std::string MapAccess::validate(const Map& m) {
     if (m.culled_.count(id) > 0) return at + ": both live and culled";
     if (m.components_.count(kf.component) == 0) return at + ": unknown component";
     const Frame& f = kf.frame;
-    for (const std::vector<double>* v : {&f.pyramid.scale, &f.pyramid.inv_scale, &f.pyramid.sigma2, &f.pyramid.inv_sigma2}) {
-      if (v->size() != static_cast<std::size_t>(std::max(f.pyramid.levels, 0))) return at + ": pyramid sizes disagree";
+    // The pyramid is the one its levels and scale factor make (level predictions divide by the factor's
+    // logarithm: a factor of 1 or NaN with more levels than one was undefined behaviour later).
+    const ScalePyramid& pyramid = f.pyramid;
+    if (pyramid.levels < 1 || pyramid.levels > kMaxPyramidLevels || !std::isfinite(pyramid.scale_factor) ||
+        pyramid.scale_factor < 1.0 || (pyramid.levels > 1 && !(pyramid.scale_factor > 1.0))) {
+      return at + ": pyramid levels or scale factor out of range";
+    }
+    const ScalePyramid expected = ScalePyramid::make(pyramid.levels, pyramid.scale_factor);
+    if (pyramid.scale != expected.scale || pyramid.inv_scale != expected.inv_scale ||
+        pyramid.sigma2 != expected.sigma2 || pyramid.inv_sigma2 != expected.inv_sigma2) {
+      return at + ": pyramid scales disagree with its scale factor";
     }
     for (int level : f.level) {
       if (level < 0 || level >= f.pyramid.levels) return at + ": a feature level outside the pyramid";

@@ -336,6 +336,27 @@ TEST(MapIo, LocalizationOnlyWithoutAMapTracksNothing) {
   EXPECT_EQ(agent.map_stats().keyframes, 0u);
 }
 
+// A keyframe's pyramid must be the one its levels and scale factor make: a factor of 1 (or NaN) with 8
+// levels loaded, and level predictions then divided by log(1).
+TEST(MapIo, APyramidThatItsScaleFactorDoesNotMakeIsRefused) {
+  const fs::path dir = test_dir();
+  for (const double factor : {1.0, std::nan(""), 1.3}) {
+    Map map = first_run().map;
+    Keyframe* kf = map.keyframe(map.keyframes().begin()->first);
+    ASSERT_NE(kf, nullptr);
+    kf->frame.pyramid.scale_factor = factor;  // 1.3: finite and valid, but not what made the scales
+    const fs::path file = dir / "pyramid.fsmap";
+    save_map(map, file, 0);
+    try {
+      load_map(file);
+      ADD_FAILURE() << "loaded a pyramid with scale factor " << factor;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("pyramid"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(MapIo, TruncatedFilesAreInputErrorsNamingTheFile) {
   const std::string& bytes = first_run().bytes;
   const fs::path file = test_dir() / "truncated.fsmap";
