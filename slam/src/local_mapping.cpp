@@ -108,7 +108,13 @@ void LocalMapper::process(KeyframeId current, Map& map, MappingReport& report) {
   report.keyframe = current;
   report.culled_points = cull_recent_points(current, map);
   if (config_.triangulate) report.triangulated = triangulate(current, map);
-  if (config_.fuse) report.fused = fuse(current, map);
+  if (config_.fuse) {
+    report.fused = fuse(current, map);  // ends by updating the keyframe's covisibility
+  } else if (report.triangulated > 0) {
+    // The new points' observations must reach the covisibility weights the BA window, the keyframe culling
+    // and the next triangulation use; fuse() updates them otherwise.
+    map.update_connections(current, config_.covisibility_min_weight);
+  }
   if (config_.local_ba) {
     if (const std::optional<LocalBaProblem> problem = prepare_local_ba(current, map)) {
       report.ba = apply_local_ba(*problem, solve_local_ba(*problem), map);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <vector>
 
 #include "fleetslam/core/log.hpp"
@@ -195,6 +196,22 @@ TEST(AgentSynthetic, AKeyframesFrameFollowsItsKeyframe) {
     ASSERT_NE(frame, run.trajectory.end());
     EXPECT_TRUE(frame->T_world_body.isApprox(kf.T_world_body, 1e-12)) << "keyframe at " << kf.t_ns << " ns";
   }
+}
+
+// Without fusion the points triangulated at a keyframe still reach its covisibility weights: updating
+// them again from the map's observations changes nothing for the newest keyframe.
+TEST(AgentSynthetic, WithoutFusionCovisibilityFollowsTriangulation) {
+  const auto& frames = sequence(core::SensorMode::kRgbd);
+  AgentConfig config;
+  config.mapping.fuse = false;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  for (const core::SensorFrame& frame : frames) agent.process(frame);
+  Map map = agent.map_copy();
+  ASSERT_GE(map.keyframe_count(), 2u);
+  const KeyframeId newest = map.keyframes().rbegin()->first;
+  const std::map<KeyframeId, int> before = map.keyframe(newest)->connections;
+  map.update_connections(newest, config.mapping.covisibility_min_weight);
+  EXPECT_EQ(map.keyframe(newest)->connections, before);
 }
 
 core::SensorFrame with_image(core::SensorFrame f, cv::Mat image) {
