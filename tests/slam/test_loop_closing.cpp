@@ -1,7 +1,8 @@
 // Loop closing on a synthetic loop: the camera turns once around the room (its start view comes back)
 // and a depth glitch of 20 frames (depth 12 % too long) a third of the way round shifts the map built then,
-// so the rest of the trajectory is offset from the truth until the loop is closed. The loop is detected and closed, the ATE drops by more than half against the same
-// run without loop closing, and deterministic mode repeats bit for bit.
+// so the rest of the trajectory is offset from the truth until the loop is closed. The loop is detected
+// between the last keyframes and the first, and closed: the ATE drops by more than half against the same
+// run without loop closing.
 
 #include <gtest/gtest.h>
 
@@ -115,7 +116,10 @@ TEST(LoopClosing, SyntheticLoopIsClosedAndHalvesTheAte) {
               ate_rmse(closed.trajectory, false));
   EXPECT_TRUE(open.loops.empty());
   ASSERT_FALSE(closed.loops.empty());
-  EXPECT_LT(closed.loops.front().current - closed.loops.front().loop, 1000);
+  // The start view comes back: the loop reaches from one of the last keyframes to one of the first.
+  std::printf("first loop: keyframe %lld to keyframe %lld\n", static_cast<long long>(closed.loops.front().current),
+              static_cast<long long>(closed.loops.front().loop));
+  EXPECT_LT(closed.loops.front().loop, closed.loops.front().current / 4);
   EXPECT_GE(closed.loops.front().inliers, 40);
   EXPECT_LT(ate_closed, 0.5 * ate_open);
   EXPECT_EQ(closed.tracked, static_cast<int>(loop_sequence().size()));
