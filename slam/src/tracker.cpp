@@ -86,6 +86,9 @@ TrackingResult Tracker::track(Frame& frame, Map& map, const TrackingInputs& inpu
       w.clear_matches();
       ok = relocalize(w, map, inputs, result);
     }
+    // Only consecutive frames with features count: a blank frame restarts the count (the time it spanned
+    // counted, and one failed textured frame after a long blank stretch started a new map at once).
+    if (!ok && static_cast<int>(frame.size()) < config_.init_min_features) relocalization_failing_since_ns_.reset();
     if (!ok && !inputs.localization_only && static_cast<int>(frame.size()) >= config_.init_min_features) {
       if (!relocalization_failing_since_ns_) relocalization_failing_since_ns_ = frame.t_ns;
       const double failing_s = core::ns_to_seconds(frame.t_ns - *relocalization_failing_since_ns_);

@@ -281,6 +281,31 @@ TEST(AgentSynthetic, WithoutRelocalizationALongLossStartsANewComponent) {
   EXPECT_EQ(agent.map_stats().components, 2);
 }
 
+// Relocalisation must fail for new_map_after_s (1 s) on consecutive textured frames before a new map
+// starts: a third of a second of them, two seconds blank, then one more is no reason yet (the blank time
+// counted, and that frame started a new component).
+TEST(AgentSynthetic, BlankFramesDoNotCountTowardsANewComponent) {
+  const std::vector<core::SensorFrame>& frames = sequence(core::SensorMode::kRgbd);
+  Agent agent(AgentConfig{}, test::synthetic_rgbd_rig(), core::null_logger());
+  for (std::size_t i = 0; i < 20; ++i) ASSERT_TRUE(agent.process(frames[i]).has_pose()) << i;
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);  // textured, and no place in the map
+  const cv::Mat blank(480, 640, CV_8UC1, cv::Scalar(128));
+  core::TimeNs t_ns = frames[19].t_ns;
+  const auto next = [&](const cv::Mat& image) {
+    core::SensorFrame f = with_image(frames[20], image);
+    t_ns += 33'333'333;
+    f.t_ns = t_ns;
+    return agent.process(f);
+  };
+  for (int k = 0; k < 10; ++k) EXPECT_FALSE(next(noise).has_pose()) << k;
+  for (int k = 0; k < 60; ++k) EXPECT_FALSE(next(blank).has_pose()) << k;
+  const AgentUpdate after = next(noise);
+  EXPECT_NE(after.status, FrameStatus::kInitialized) << after.reason;
+  EXPECT_EQ(agent.map_stats().components, 1);
+}
+
 // Half a second of blank frames while the camera keeps turning: the gyro-predicted pose finds the last
 // local map again in the same component, where without a gyro a new component starts (test above).
 TEST(AgentSynthetic, WithAGyroABlankStretchIsBridgedInTheSameComponent) {

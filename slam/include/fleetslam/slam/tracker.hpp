@@ -9,8 +9,9 @@
 //         projected with visibility checks, matched on the grid, pose optimised again;
 //   too few inliers -> lost; the next recovery_frames frames retry the reference keyframe from the last
 //         good pose; after that each frame tries relocalisation (below); when relocalisation has failed
-//         for relocalization.new_map_after_s on frames with enough features (blank frames do not count),
-//         the next frame with enough depth starts a new map component at the last known pose.
+//         for relocalization.new_map_after_s on consecutive frames with enough features (a blank frame
+//         restarts the count), the next frame with enough depth starts a new map component at the last
+//         known pose.
 // Relocalisation (ORB-SLAM's idea, written here): the frame's BoW vector against the keyframe database,
 // BoW matches with each candidate's map points, PnP-RANSAC (OpenCV) on the 2D-3D pairs, pose-only
 // optimisation, a guided search of the candidate's neighbourhood points by projection, optimisation again;
