@@ -109,6 +109,18 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
   FLEETSLAM_CHECK(!closed_, "write() after close()");
   check_frame(frame);
   if (frames_ > 0 && frame.t_ns <= last_t_ns_) throw InputError(frame_name(frame), "stamp does not increase");
+  // What the reader would refuse is refused here, before anything of the frame is written.
+  if (frame.image.cols != rig_.cam0.width() || frame.image.rows != rig_.cam0.height()) {
+    throw InputError(frame_name(frame), "image is " + std::to_string(frame.image.cols) + "x" +
+                                            std::to_string(frame.image.rows) + " but the rig's camera is " +
+                                            std::to_string(rig_.cam0.width()) + "x" + std::to_string(rig_.cam0.height()));
+  }
+  std::optional<TimeNs> last_imu = last_imu_t_ns_;
+  for (const ImuSample& s : frame.imu) {
+    if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "accelerometer stamps do not increase");
+    last_imu = s.t_ns;
+  }
+  last_imu_t_ns_ = last_imu;
   const std::string stamp = stamp_text(frame.t_ns);
   write_image(root_ / "rgb" / (stamp + ".png"), frame.image);
   write_image(root_ / "depth" / (stamp + ".png"), depth_to_raw(frame.depth_m, rig_.depth_scale, depth_out_of_range_));

@@ -452,6 +452,15 @@ TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {
   frames = make_frames(8);
   std::swap(frames[2].t_ns, frames[3].t_ns);
   expect_input_error([&] { write_sequence(dir / "b", frames); }, {"does not increase"});
+  // What the reader would refuse: an image of another size than the rig's camera, accelerometer stamps
+  // that go back.
+  frames = make_frames(8);
+  frames[3].image = test::random_image(32, 24, CV_8UC3, 1);
+  frames[3].depth_m = test::random_depth(32, 24, 2);
+  expect_input_error([&] { write_sequence(dir / "c", frames); }, {"frame 3", "image is 32x24 but the rig's camera is 64x48"});
+  frames = make_frames(8);
+  frames[4].imu.front().t_ns = frames[3].t_ns - 1;
+  expect_input_error([&] { write_sequence(dir / "d", frames); }, {"frame 4", "accelerometer stamps do not increase"});
 }
 
 TEST(TumRgbdWriter, DepthBeyondSixteenBitsBecomesNoMeasurement) {

@@ -63,6 +63,7 @@ class TumRgbdWriter final : public FrameSink {
   std::size_t frames_ = 0;
   std::size_t depth_out_of_range_ = 0;
   TimeNs last_t_ns_ = 0;
+  std::optional<TimeNs> last_imu_t_ns_;  // the accelerometer list's stamps must increase, as the reader wants
   bool closed_ = false;
 };
 
