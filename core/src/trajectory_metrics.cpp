@@ -29,9 +29,9 @@ std::vector<Candidate> candidate_pairs(const Trajectory& gt, const Trajectory& e
   std::vector<Candidate> candidates;
   auto stamp_less = [](const StampedPose& pose, TimeNs t_ns) { return pose.t_ns < t_ns; };
   for (std::size_t e = 0; e < est.size(); ++e) {
-    const TimeNs t_ns = est[e].t_ns + config.offset_ns;
-    auto it = std::lower_bound(gt.begin(), gt.end(), t_ns - config.max_difference_ns + 1, stamp_less);
-    for (; it != gt.end() && it->t_ns < t_ns + config.max_difference_ns; ++it) {
+    const TimeNs t_ns = saturating_add(est[e].t_ns, config.offset_ns);
+    auto it = std::lower_bound(gt.begin(), gt.end(), saturating_add(t_ns, 1 - config.max_difference_ns), stamp_less);
+    for (; it != gt.end() && it->t_ns < saturating_add(t_ns, config.max_difference_ns); ++it) {
       const TimeNs difference_ns = it->t_ns > t_ns ? it->t_ns - t_ns : t_ns - it->t_ns;
       candidates.push_back({difference_ns, static_cast<std::size_t>(it - gt.begin()), e});
     }

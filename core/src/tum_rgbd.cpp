@@ -24,8 +24,8 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_stamps(const std::vec
   // only looks at the window of b around it.
   std::vector<std::tuple<TimeNs, std::size_t, std::size_t>> candidates;
   for (std::size_t i = 0; i < a.size(); ++i) {
-    auto j = std::upper_bound(b.begin(), b.end(), a[i] - max_difference_ns);
-    for (; j != b.end() && *j < a[i] + max_difference_ns; ++j) {
+    auto j = std::upper_bound(b.begin(), b.end(), saturating_add(a[i], -max_difference_ns));
+    for (; j != b.end() && *j < saturating_add(a[i], max_difference_ns); ++j) {
       const TimeNs difference = *j > a[i] ? *j - a[i] : a[i] - *j;
       candidates.emplace_back(difference, i, static_cast<std::size_t>(j - b.begin()));
     }

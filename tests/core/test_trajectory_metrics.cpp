@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -108,6 +110,22 @@ TEST(Association, MaxDifferenceIsStrictAndOffsetShiftsTheEstimate) {
   EXPECT_EQ(associate_by_time(gt, est, {21, 0}), (std::vector<PosePair>{{0, 0}}));
   EXPECT_EQ(associate_by_time(gt, est, {5, 20}), (std::vector<PosePair>{{0, 0}}));     // 80 + 20 = 100
   EXPECT_EQ(associate_by_time(gt, est, {5, -30}), (std::vector<PosePair>{{1, 1}}));    // 230 - 30 = 200
+}
+
+// Stamps near the ends of int64: the search window is clamped, not wrapped (it wrapped negative and
+// nothing was paired, by undefined behaviour).
+TEST(Association, StampsNearTheEndsOfTheRangePair) {
+  constexpr TimeNs kMax = std::numeric_limits<TimeNs>::max();
+  constexpr TimeNs kMin = std::numeric_limits<TimeNs>::min();
+  const Trajectory high_gt{{kMax - 10, {}}};
+  const Trajectory high_est{{kMax - 5, {}}};
+  EXPECT_EQ(associate_by_time(high_gt, high_est, {20'000'000, 0}), (std::vector<PosePair>{{0, 0}}));
+  const Trajectory low_gt{{kMin + 10, {}}};
+  const Trajectory low_est{{kMin + 5, {}}};
+  EXPECT_EQ(associate_by_time(low_gt, low_est, {20'000'000, 0}), (std::vector<PosePair>{{0, 0}}));
+  EXPECT_EQ(saturating_add(kMax - 1, 5), kMax);
+  EXPECT_EQ(saturating_add(kMin + 1, -5), kMin);
+  EXPECT_EQ(saturating_add(7, -5), 2);
 }
 
 TEST(Association, GreedyTakesTheClosestFirstAndResultIsInTimeOrder) {

@@ -3,6 +3,7 @@
 // ("1305031229.528748") are converted exactly, digit by digit, never through a double.
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -17,6 +18,13 @@ constexpr double ns_to_seconds(TimeNs t_ns) { return static_cast<double>(t_ns) *
 
 // Rounds to the nearest nanosecond.
 TimeNs seconds_to_ns(double t_s);
+
+// a + b clamped to TimeNs's range: a stamp near either end plus or minus a search window must not wrap.
+inline TimeNs saturating_add(TimeNs a, TimeNs b) {
+  TimeNs sum = 0;
+  if (!__builtin_add_overflow(a, b, &sum)) return sum;
+  return b > 0 ? std::numeric_limits<TimeNs>::max() : std::numeric_limits<TimeNs>::min();
+}
 
 // Parses decimal seconds ("1305031229.528748", "-0.5", "12") exactly; digits past the ninth decimal
 // are rounded half away from zero. Scientific notation ("1.403715529112143517e+09") is exact too.
