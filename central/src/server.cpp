@@ -16,6 +16,7 @@
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 #include "fleetslam/core/time.hpp"
+#include "voxel_hash.hpp"
 
 namespace fleetslam::central {
 
@@ -38,16 +39,16 @@ nlohmann::json pose_json(const Eigen::Isometry3d& T) {
 // point cover every point within cell_m of it).
 class OccupancyHash {
  public:
-  OccupancyHash(const core::PointCloud& cloud, double cell_m) : inv_(1.0 / cell_m) {
+  OccupancyHash(const core::PointCloud& cloud, double cell_m) : inv_(static_cast<float>(1.0 / cell_m)) {
     cells_.reserve(cloud.size());
-    for (const Eigen::Vector3f& p : cloud.points) cells_.insert(key(cell(p)));
+    for (const Eigen::Vector3f& p : cloud.points) cells_.insert(detail::pack_voxel(detail::voxel_of(p, inv_)));
   }
   bool near(const Eigen::Vector3f& p) const {
-    const Eigen::Vector3i c = cell(p);
+    const Eigen::Vector3i c = detail::voxel_of(p, inv_);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          if (cells_.count(key(c + Eigen::Vector3i(dx, dy, dz))) > 0) return true;
+          if (cells_.count(detail::pack_voxel(c + Eigen::Vector3i(dx, dy, dz))) > 0) return true;
         }
       }
     }
@@ -55,17 +56,10 @@ class OccupancyHash {
   }
 
  private:
-  Eigen::Vector3i cell(const Eigen::Vector3f& p) const {
-    return Eigen::Vector3i(static_cast<int>(std::floor(static_cast<double>(p.x()) * inv_)),
-                           static_cast<int>(std::floor(static_cast<double>(p.y()) * inv_)),
-                           static_cast<int>(std::floor(static_cast<double>(p.z()) * inv_)));
-  }
-  static std::int64_t key(const Eigen::Vector3i& c) {
-    const auto axis = [](int v) { return static_cast<std::int64_t>(v + (1 << 20)) & ((std::int64_t{1} << 21) - 1); };
-    return (axis(c.x()) << 42) | (axis(c.y()) << 21) | axis(c.z());
-  }
-  double inv_;
-  std::unordered_set<std::int64_t> cells_;
+  // Clamped voxel coordinates (voxel_hash.hpp): far points share border cells instead of wrapping into
+  // cells near the origin (21 bits a coordinate: at the smallest radius, 1e-4 m, 105 m wrapped).
+  float inv_;
+  std::unordered_set<std::uint64_t> cells_;
 };
 
 nlohmann::json later_components_json(const std::vector<ComponentPlacement>& components) {

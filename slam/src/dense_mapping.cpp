@@ -190,8 +190,12 @@ core::PointCloud DenseMapper::keyframe_cloud(const core::SensorFrame& sensor) co
 
 std::int64_t DenseMapper::voxel_key(const Eigen::Vector3f& p) const {
   const double inv = 1.0 / config_.voxel_size_m;
+  // Clamped to the 21 bits: far points share the border voxels instead of wrapping into voxels near the
+  // origin (at 0.1 mm voxels, points 105 m apart shared a key and the later one was dropped).
+  constexpr double kLimit = static_cast<double>(kAxisOffset - 1);
   const auto axis = [&](float x) {
-    return (static_cast<std::int64_t>(std::floor(static_cast<double>(x) * inv)) + kAxisOffset) & kAxisMask;
+    const double v = std::clamp(std::floor(static_cast<double>(x) * inv), -kLimit, kLimit);
+    return (static_cast<std::int64_t>(v) + kAxisOffset) & kAxisMask;
   };
   return (axis(p.x()) << (2 * kAxisBits)) | (axis(p.y()) << kAxisBits) | axis(p.z());
 }
