@@ -65,7 +65,12 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
   }
   if (config.place_recognition.enabled) {
     vocabulary = load_place_vocabulary(config.place_recognition);
-    if (config.loop_closing.enabled) loop_closer.emplace(config.loop_closing, logger);
+    if (config.loop_closing.enabled) {
+      LoopClosingConfig loop_config = config.loop_closing;
+      loop_config.pose_optimizer = config.tracking.pose_optimizer;
+      loop_config.covisibility_min_weight = config.mapping.covisibility_min_weight;
+      loop_closer.emplace(loop_config, logger);
+    }
   }
   if (config.threaded) {
     if (config.dense.enabled) dense_worker = std::make_unique<DenseWorker>(dense, logger);

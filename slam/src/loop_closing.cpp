@@ -51,7 +51,7 @@ Eigen::Isometry3d rigid_fit(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd
 // Guided matching of `points` into frame f (whose map_points may hold seed matches) at T_cam_world, then
 // pose-only optimisation on every match.
 PoseResult refine_on_points(Frame f, const std::vector<MapPointId>& points, const Eigen::Isometry3d& T_cw,
-                            const Map& map, const ProjectionSearchConfig& search) {
+                            const Map& map, const ProjectionSearchConfig& search, const OptimizerConfig& optimizer) {
   std::vector<ProjectedPoint> projected;
   for (MapPointId id : points) {
     if (auto p = project_map_point(*map.point(id), f, T_cw, search)) projected.push_back(*p);
@@ -66,7 +66,7 @@ PoseResult refine_on_points(Frame f, const std::vector<MapPointId>& points, cons
     o.obs = observation_of(f, i);
     observations.push_back(o);
   }
-  return optimize_pose(f.camera, f.bf, observations, T_cw, OptimizerConfig{});
+  return optimize_pose(f.camera, f.bf, observations, T_cw, optimizer);
 }
 
 // Length of the path through the component's keyframes (in id order, so in time) from `from` to `to`.
@@ -233,7 +233,7 @@ std::optional<LoopCloser::Verified> LoopCloser::verify(const Keyframe& current, 
     f.map_points[static_cast<std::size_t>(m.b)] = loop.frame.map_points[static_cast<std::size_t>(m.a)];
   }
   const PoseResult pose = refine_on_points(std::move(f), v.loop_points, (best_T * current.T_world_cam).inverse(), map,
-                                           config_.search);
+                                           config_.search, config_.pose_optimizer);
   v.inliers = pose.inliers;
   logger_->debug("loop candidate {} for keyframe {}: score {:.3f}, {} BoW matches, {} RANSAC inliers, {} refined inliers",
                  loop.id, current.id, v.score, v.bow_matches, v.ransac_inliers, v.inliers);
@@ -277,7 +277,7 @@ int LoopCloser::confirmations(const Keyframe& current, const std::vector<Keyfram
     Frame f = n->frame;
     f.map_points.assign(f.size(), kNoMapPoint);
     const PoseResult pose = refine_on_points(std::move(f), loop.loop_points, (correction * n->T_world_cam).inverse(), map,
-                                             config_.search);
+                                             config_.search, config_.pose_optimizer);
     logger_->debug("loop {} of keyframe {}: neighbour {} finds {} inliers", loop.loop, current.id, id, pose.inliers);
     if (pose.ok && pose.inliers >= config_.min_confirm_inliers) ++confirmed;
   }

@@ -201,7 +201,7 @@ void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, 
   for (MapPointId id : loop.loop_points) {
     if (map.point(id) != nullptr) map.update_point_statistics(id);
   }
-  for (KeyframeId id : group) map.update_connections(id);
+  for (KeyframeId id : group) map.update_connections(id, config_.covisibility_min_weight);
   // 3. The essential graph: spanning tree and strong covisibility edges keep their uncorrected relative
   // poses; loop edges (links new since the fusion) take the corrected ones.
   std::map<KeyframeId, Eigen::Isometry3d> poses;

@@ -123,7 +123,7 @@ int Tracker::relocalize_with(Working& w, const Keyframe& candidate, const Featur
     pairs[k].obs.uv = f.uv[b];
     pairs[k].obs.inv_sigma2 = f.pyramid.inv_sigma2[static_cast<std::size_t>(f.level[b])];
   }
-  inliers = reprojection_inliers(f.camera, pairs, T_cw, OptimizerConfig{}.chi2_mono);
+  inliers = reprojection_inliers(f.camera, pairs, T_cw, config_.pose_optimizer.chi2_mono);
   if (static_cast<int>(inliers.size()) < c.min_ransac_inliers) return 0;
   for (int k : inliers) {
     const Match& m = matches[static_cast<std::size_t>(k)];

@@ -74,6 +74,10 @@ struct LoopClosingConfig {
   std::int64_t seed = 0;
   BowMatchConfig matching;
   ProjectionSearchConfig search;   // guided matching and fusion
+  // Not read from this section: the agent sets them from its own (tracking's `optimizer`, mapping's
+  // covisibility_min_weight), so that loops verify poses and link keyframes as the rest of the agent does.
+  OptimizerConfig pose_optimizer;
+  int covisibility_min_weight = 15;
 
   template <class V>
   void visit(V& v) {
