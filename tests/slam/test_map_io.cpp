@@ -280,17 +280,22 @@ TEST(MapIo, LoadingWithAnotherVocabularyRecomputesBow) {
   EXPECT_EQ(agent.map_stats().keyframes, run.map.keyframe_count());
 }
 
+// A localisation-only agent with `config` (localization_only set here) in the first run's saved map.
+Agent localising_in_first_map(AgentConfig config) {
+  const fs::path file = test_dir() / "map.fsmap";
+  write_bytes(file, first_run().bytes);
+  config.localization_only = true;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  agent.load_map(file);
+  return agent;
+}
+
 // The map's BoW vectors follow the loading agent's place_recognition.levels_up: grouped at another tree
 // depth they shared no node with its frames, and relocalisation silently never succeeded.
 TEST(MapIo, LoadingWithAnotherLevelsUpRelocalises) {
-  const FirstRun& run = first_run();
-  const fs::path file = test_dir() / "map.fsmap";
-  write_bytes(file, run.bytes);
   AgentConfig config;
-  config.localization_only = true;
   config.place_recognition.levels_up = AgentConfig{}.place_recognition.levels_up + 2;
-  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
-  agent.load_map(file);
+  Agent agent = localising_in_first_map(config);
   const AgentUpdate first = agent.process(sequence().front());
   EXPECT_TRUE(first.relocalized) << first.reason;
   EXPECT_NE(first.reason.find("relocalised in the loaded map"), std::string::npos) << first.reason;
@@ -311,14 +316,9 @@ TEST(MapIo, LoadingWithAnotherLevelsUpRelocalises) {
 
 // Localisation only with relocalisation switched off cannot place a frame, and says why.
 TEST(MapIo, LocalizationOnlyHonoursRelocalizationEnabled) {
-  const FirstRun& run = first_run();
-  const fs::path file = test_dir() / "map.fsmap";
-  write_bytes(file, run.bytes);
   AgentConfig config;
-  config.localization_only = true;
   config.tracking.relocalization.enabled = false;
-  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
-  agent.load_map(file);
+  Agent agent = localising_in_first_map(config);
   const AgentUpdate first = agent.process(sequence().front());
   EXPECT_FALSE(first.has_pose());
   EXPECT_NE(first.reason.find("relocalisation disabled"), std::string::npos) << first.reason;
