@@ -54,10 +54,17 @@ MapAccuracy evaluate_map(const core::PointCloud& map_world, const std::vector<Ei
       }
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
       const Eigen::Vector3d values = eig.eigenvalues();  // ascending
-      // Planar where the smallest spread is well below the others: distance to that plane.
+      // Planar where the smallest spread is well below the others: distance to the patch of that plane the
+      // samples span (a disk around their mean as wide as their farthest in-plane offset). The plane alone
+      // scored a point in its extension past the surface's edge (a phantom wall across a doorway) as on it.
       if (values(0) < 0.05 * values(1)) {
         const Eigen::Vector3d normal = eig.eigenvectors().col(0);
-        d = std::min(d, std::abs(normal.dot(p.cast<double>() - mean)));
+        const auto in_plane = [&normal](const Eigen::Vector3d& v) { return (v - normal.dot(v) * normal).norm(); };
+        double patch_radius = 0.0;
+        for (const Neighbour& n : near) patch_radius = std::max(patch_radius, in_plane(truth[n.index].cast<double>() - mean));
+        const Eigen::Vector3d offset = p.cast<double>() - mean;
+        const double beyond = std::max(0.0, in_plane(offset) - patch_radius);
+        d = std::min(d, std::hypot(normal.dot(offset), beyond));
       }
     }
     distances.push_back(d);

@@ -1,5 +1,5 @@
 // Map evaluation against known surfaces: exact maps score zero, a known offset is measured exactly
-// despite the truth's sampling, half a map gives half completeness, and outliers count as far points.
+// despite the truth's sampling, a point past a surface's edge is off it, half a map gives half completeness, and outliers count as far points.
 
 #include <gtest/gtest.h>
 
@@ -39,6 +39,22 @@ TEST(MapEvaluation, OffsetFromThePlaneIsMeasuredNotTheSampleSpacing) {
   EXPECT_NEAR(offset.p95_m, 0.013, 1e-5);
   EXPECT_EQ(offset.map_points, 5000u);
   EXPECT_EQ(offset.far_points, 0u);
+}
+
+// A point in the plane's extension, 0.3 m past the floor's edge (a phantom wall across a doorway, floor
+// points slid past the floor's end), is 0.3 m off the surface, less the patch the nearest samples span;
+// the plane alone scored it 0.
+TEST(MapEvaluation, APointPastTheSurfacesEdgeIsOffIt) {
+  const std::vector<Eigen::Vector3f> truth = floor_truth(0.02);
+  core::PointCloud beyond;
+  beyond.push_back(Eigen::Vector3f(4.3f, 1.5f, 0.0f));
+  const MapAccuracy result = evaluate_map(beyond, truth);
+  EXPECT_GT(result.mean_m, 0.25);
+  EXPECT_LE(result.mean_m, 0.3 + 1e-6);
+  // Just inside the edge and 1 cm above it, the plane still measures the offset.
+  core::PointCloud inside;
+  inside.push_back(Eigen::Vector3f(3.995f, 1.505f, 0.01f));
+  EXPECT_NEAR(evaluate_map(inside, truth).mean_m, 0.01, 1e-5);
 }
 
 TEST(MapEvaluation, CompletenessIsTheShareOfSurfaceNearTheMap) {
