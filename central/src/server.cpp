@@ -498,7 +498,6 @@ const ServerMergeReport& Server::merge() {
     int robot_id;
     int component;
     int merge_id;
-    Eigen::Isometry3d prior;
   };
   std::vector<LaterUnit> later;
   int next_id = robots_.empty() ? 0 : robots_.rbegin()->first + 1;
@@ -515,7 +514,7 @@ const ServerMergeReport& Server::merge() {
       input.after_id = previous_id;  // matched after the component it continues
       previous_id = next_id;
       logger_->info("merge: robot {} is {}'s map component {}", next_id, robot.spec.name, c);
-      later.push_back({id, c, next_id++, input.T_world_robot_prior});
+      later.push_back({id, c, next_id++});
       inputs.push_back(std::move(input));
       // The next component continues this one: where the last merge put it, else where this one starts.
       previous = last_placement(id, c).value_or(previous);
@@ -533,6 +532,10 @@ const ServerMergeReport& Server::merge() {
     r.registered = info != nullptr && info->fine_matched;
     r.overlap_points = info != nullptr ? info->overlap_points : 0;
     r.merge_status = info != nullptr ? info->status : "not merged";
+    // A component the merge did not place continues the one before it as this merge placed that one (its
+    // prior was the last merge's placement, a merge behind: the trajectory jumped by this merge's correction
+    // where the component began).
+    Eigen::Isometry3d continued = r.T_world_robot;
     for (const LaterUnit& unit : later) {
       if (unit.robot_id != id) continue;
       ComponentPlacement p;
@@ -543,7 +546,8 @@ const ServerMergeReport& Server::merge() {
       p.placed = part != nullptr && part->placed;
       p.registered = part != nullptr && part->fine_matched;
       p.merge_status = part != nullptr ? part->status : "not merged";
-      p.T_world_component = p.placed ? part->T_world_robot : unit.prior;
+      p.T_world_component = p.placed ? part->T_world_robot : continued;
+      continued = p.T_world_component;
       r.later_components.push_back(p);
     }
     const core::Trajectory keyframes = robot_keyframes(id, robot.component);
