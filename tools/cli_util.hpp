@@ -32,6 +32,7 @@ nlohmann::json skipped_rows_json(const std::vector<core::SkippedRow>& rows);
 using runner::create_output_folder;
 using runner::loop_event_json;
 using runner::loop_rejections_json;
+using runner::remove_files_named;
 using runner::timing_stats_json;
 using runner::write_text_file;
 

@@ -278,13 +278,9 @@ void print_summary(const RunResult& run, const std::vector<core::SkippedRow>& un
 // run's (a stale dense_map.ply or metrics.json next to new results read as theirs). Only these names are
 // touched: a split's robot folders (robot_a, ...) are left as they are.
 void remove_earlier_outputs(const fs::path& out, const core::Logger& logger) {
-  std::size_t removed = 0;
-  for (const char* name : {"config.yaml", "trajectory.txt", "keyframes.txt", "timings.csv", "keyframe_decisions.csv",
-                           "dense_map.ply", "groundtruth.txt", "metrics.json", "central_config.yaml", "merged_map.ply",
-                           "merge.json"}) {
-    std::error_code ec;
-    if (fs::is_regular_file(out / name, ec) && fs::remove(out / name, ec)) ++removed;
-  }
+  const std::size_t removed = remove_files_named(
+      out, {"config.yaml", "trajectory.txt", "keyframes.txt", "timings.csv", "keyframe_decisions.csv", "dense_map.ply",
+            "groundtruth.txt", "metrics.json", "central_config.yaml", "merged_map.ply", "merge.json"});
   if (removed > 0) logger->info("removed {} output file(s) of an earlier replay from {}", removed, out.string());
 }
 

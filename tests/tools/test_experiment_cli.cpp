@@ -171,19 +171,17 @@ TEST(ExperimentCliErrors, MissingDatasetFolderExitsTwoNamingIt) {
 }
 
 TEST(ExperimentCliErrors, BadSettingsExitTwo) {
-  const test::CliResult r = test::run_cli("experiment keyframes --doc x.md --tum none --euroc none --scenario none");
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find("--doc"), std::string::npos) << r.output;
-  const test::CliResult f = test::run_cli("experiment matching --features 3 --tum none --euroc none --scenario none");
-  EXPECT_EQ(f.exit_code, 2) << f.output;
-  EXPECT_NE(f.output.find("--features"), std::string::npos) << f.output;
+  // `arguments` with every source none: exit 2 and a message holding `why`.
+  const auto expect_exit_two = [](const std::string& arguments, const std::string& why) {
+    const test::CliResult r = test::run_cli("experiment " + arguments + " --tum none --euroc none --scenario none");
+    EXPECT_EQ(r.exit_code, 2) << arguments << ": " << r.output;
+    EXPECT_NE(r.output.find(why), std::string::npos) << arguments << ": " << r.output;
+  };
+  expect_exit_two("keyframes --doc x.md", "--doc");
+  expect_exit_two("matching --features 3", "--features");
   // Nothing to run on, or a frame count that is neither -1 nor positive, is an error, not empty tables.
-  const test::CliResult none = test::run_cli("experiment matching --tum none --euroc none --scenario none");
-  EXPECT_EQ(none.exit_code, 2) << none.output;
-  EXPECT_NE(none.output.find("all are none"), std::string::npos) << none.output;
-  const test::CliResult frames = test::run_cli("experiment matching --frames -5 --tum none --euroc none --scenario none");
-  EXPECT_EQ(frames.exit_code, 2) << frames.output;
-  EXPECT_NE(frames.output.find("--frames"), std::string::npos) << frames.output;
+  expect_exit_two("matching", "all are none");
+  expect_exit_two("matching --frames -5", "--frames");
 }
 
 }  // namespace

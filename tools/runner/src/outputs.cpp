@@ -17,6 +17,15 @@ void create_output_folder(const std::filesystem::path& dir) {
   if (ec) throw InputError(dir.string(), "cannot create the output folder: " + ec.message());
 }
 
+std::size_t remove_files_named(const std::filesystem::path& folder, const std::vector<std::string>& names) {
+  std::size_t removed = 0;
+  for (const std::string& name : names) {
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(folder / name, ec) && std::filesystem::remove(folder / name, ec)) ++removed;
+  }
+  return removed;
+}
+
 void write_text_file(const std::filesystem::path& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
   if (!file) throw InputError(path.string(), "cannot open the file for writing");

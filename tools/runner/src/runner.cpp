@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
-#include <iterator>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -69,42 +68,35 @@ planners::Pose2d body_pose_2d(const Eigen::Isometry3d& T_world_cam, const Eigen:
   return {T_world_body.translation().x(), T_world_body.translation().y(), std::atan2(forward.y(), forward.x())};
 }
 
-// A copy of `logger` that also writes to `file`.
 // The files a run writes in its folder and in each robot's folder (central::Server::write_outputs and the
 // ground truth). An earlier run's are removed first, so that what the folder holds afterwards is this
 // run's: a stale occupancy.pgm, or the folder of a robot the new scenario does not have, read as this
 // run's. Only these names are touched: a robot folder goes only when it held nothing else.
 std::size_t remove_earlier_outputs(const fs::path& out) {
-  static constexpr const char* kRunFiles[] = {"scenario.yaml", "occupancy.pgm", "mission.json", "metrics.json",
+  const std::vector<std::string> run_files = {"scenario.yaml", "occupancy.pgm", "mission.json", "metrics.json",
                                               "report.html", "merged_map.ply", "merge.json"};
-  static constexpr const char* kRobotFiles[] = {"map.ply", "trajectory.txt", "trajectory_robot.txt", "groundtruth.txt"};
-  const auto is_one_of = [](const std::string& name, const auto& names) {
-    return std::any_of(std::begin(names), std::end(names), [&](const char* n) { return name == n; });
-  };
-  std::size_t removed = 0;
+  const std::vector<std::string> robot_files = {"map.ply", "trajectory.txt", "trajectory_robot.txt", "groundtruth.txt"};
+  std::size_t removed = remove_files_named(out, run_files);
   std::error_code ec;
-  for (const char* name : kRunFiles) {
-    if (fs::is_regular_file(out / name, ec) && fs::remove(out / name, ec)) ++removed;
-  }
   std::vector<fs::path> robot_folders;
   for (fs::directory_iterator it(out, ec), end; !ec && it != end; it.increment(ec)) {
     if (!it->is_directory(ec) || it->is_symlink(ec)) continue;
     bool only_robot_files = true;
     for (fs::directory_iterator f(it->path(), ec); !ec && f != end; f.increment(ec)) {
       only_robot_files = only_robot_files && f->is_regular_file(ec) && !f->is_symlink(ec) &&
-                         is_one_of(f->path().filename().string(), kRobotFiles);
+                         std::count(robot_files.begin(), robot_files.end(), f->path().filename().string()) > 0;
     }
     if (!ec && only_robot_files) robot_folders.push_back(it->path());
     ec.clear();
   }
   for (const fs::path& folder : robot_folders) {
-    for (const char* name : kRobotFiles) {
-      if (fs::is_regular_file(folder / name, ec) && fs::remove(folder / name, ec)) ++removed;
-    }
+    removed += remove_files_named(folder, robot_files);
     fs::remove(folder, ec);  // empty now, unless something appeared meanwhile
   }
   return removed;
 }
+
+// A copy of `logger` that also writes to `file`.
 
 core::Logger with_file_sink(const core::Logger& logger, const fs::path& file) {
   std::vector<spdlog::sink_ptr> sinks = logger->sinks();

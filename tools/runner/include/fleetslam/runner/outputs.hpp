@@ -1,6 +1,7 @@
 #pragma once
 // Writing a run's outputs: text files with a clear error, and the JSON forms of what the agents report.
 
+#include <cstddef>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -13,6 +14,10 @@ namespace fleetslam::runner {
 
 // Creates `dir` and its parents when missing; InputError naming it when that fails.
 void create_output_folder(const std::filesystem::path& dir);
+
+// Removes the regular files of these names directly in `folder` (nothing else: an earlier run's outputs
+// before a new run writes its own); returns how many were removed. Failures are ignored.
+std::size_t remove_files_named(const std::filesystem::path& folder, const std::vector<std::string>& names);
 
 // Writes `text` to `path` (truncating); InputError naming the file when that fails.
 void write_text_file(const std::filesystem::path& path, const std::string& text);
