@@ -318,8 +318,10 @@ std::vector<std::size_t> MapMerger::place_by_priors(const std::vector<RobotCloud
     report.robot_id = robots[i].robot_id;
     report.T_world_robot_prior = robots[i].T_world_robot_prior;
     report.T_world_robot = robots[i].T_world_robot_prior;
-    if (!is_rigid(robots[i].T_world_robot_prior)) {
-      report.status = "bad prior (not a finite rigid transform): left out";
+    const bool bad_after = robots[i].T_after_robot.has_value() && !is_rigid(*robots[i].T_after_robot);
+    if (!is_rigid(robots[i].T_world_robot_prior) || bad_after) {
+      report.status = std::string("bad prior (") + (bad_after ? "T_after_robot" : "T_world_robot_prior") +
+                      " not a finite rigid transform): left out";
       logger_->error("merge: robot {}: {}", report.robot_id, report.status);
       continue;
     }
@@ -377,12 +379,28 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
   std::vector<std::size_t> pending = place_by_priors(robots, result, clouds_world);
 
   MergedCloud merged;
+  std::vector<std::size_t> tried_at(robots.size(), static_cast<std::size_t>(-1));  // merged size at last try
+  // A waiting cloud that continues robot i (after_id, T_after_robot) starts from i's placement.
+  const auto carry_over = [&](std::size_t i) {
+    const RobotMergeReport& placed = result.robots[i];
+    for (const std::size_t k : pending) {
+      if (k == i || robots[k].after_id != placed.robot_id || !robots[k].T_after_robot) continue;
+      RobotMergeReport& report = result.robots[k];
+      const Eigen::Isometry3d prior = placed.T_world_robot * *robots[k].T_after_robot;
+      core::transform_in_place(clouds_world[k], prior * report.T_world_robot.inverse());
+      report.T_world_robot_prior = prior;
+      report.T_world_robot = prior;
+      tried_at[k] = static_cast<std::size_t>(-1);
+      logger_->info("merge: robot {}: prior follows robot {}'s placement", report.robot_id, placed.robot_id);
+    }
+  };
   const auto place = [&](std::size_t i, const std::string& status) {
     RobotMergeReport& report = result.robots[i];
     report.placed = true;
     if (report.status.empty()) report.status = status;
     merged.add(i, clouds_world[i]);
     logger_->info("merge: robot {}: {} ({} points)", report.robot_id, report.status, report.points);
+    carry_over(i);
   };
   // The reference: robots[0], or the first usable robot when robots[0]'s prior is not.
   if (!pending.empty()) {
@@ -390,7 +408,6 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
     pending.erase(pending.begin());
   }
   // Coarse-to-fine matching against the merged cloud so far; see the header for the order.
-  std::vector<std::size_t> tried_at(robots.size(), static_cast<std::size_t>(-1));  // merged size at last try
   bool in_order = true;  // later components wait for the input they continue
   const auto waits = [&](std::size_t i) {
     return in_order && robots[i].after_id >= 0 && std::any_of(pending.begin(), pending.end(), [&](std::size_t j) {

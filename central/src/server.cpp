@@ -492,8 +492,9 @@ const ServerMergeReport& Server::merge() {
     inputs.push_back(std::move(input));
   }
   // Later components after every robot's first one, with merge ids after the robots' ids. Their prior:
-  // the transform of the component each continues (the one before it) as the last merge had it: the
-  // agent starts a component where it believed the camera to be in the previous one.
+  // the transform of the component each continues (the one before it): the agent starts a component where
+  // it believed the camera to be in the previous one (T_after_robot identity). Until that one is placed in
+  // this merge, the last merge's placement of it stands in.
   struct LaterUnit {
     int robot_id;
     int component;
@@ -512,6 +513,7 @@ const ServerMergeReport& Server::merge() {
       input.T_world_robot_prior = previous;
       input.keep_prior_without_overlap = false;
       input.after_id = previous_id;  // matched after the component it continues
+      input.T_after_robot = Eigen::Isometry3d::Identity();
       previous_id = next_id;
       logger_->info("merge: robot {} is {}'s map component {}", next_id, robot.spec.name, c);
       later.push_back({id, c, next_id++});

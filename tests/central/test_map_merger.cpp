@@ -308,6 +308,48 @@ TEST(MapMerger, ALaterComponentWaitsForTheInputItContinues) {
   EXPECT_TRUE(stranded.robots[1].placed);
 }
 
+// B2 continues B in B's own map frame (T_after_robot identity) and overlaps nobody, so it keeps its
+// prior. Its prior was B's wrong prior (10 cm, 5 degrees off); once this merge corrects B, B2 starts from
+// B's corrected placement and keeps that.
+TEST(MapMerger, ALaterComponentStartsFromThePlacementOfTheInputItContinues) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 3.0f, kPoseA, identity),
+                                    robot(1, 2.0f, 4.5f, kPoseB, synthetic::prior_error()),
+                                    robot(2, 5.4f, 6.0f, kPoseB, synthetic::prior_error(), 8000)};
+  robots[2].after_id = 1;
+  const MergeResult without = MapMerger(MapMergerConfig{}).merge(robots);
+  ASSERT_EQ(without.robots[1].status, "fine matched");
+  EXPECT_EQ(without.robots[2].status, "no overlap: prior kept");
+  EXPECT_GT(synthetic::pose_error(without.robots[2].T_world_robot, kPoseB).first, 0.05);
+
+  robots[2].T_after_robot = identity;
+  const MergeResult chained = MapMerger(MapMergerConfig{}).merge(robots);
+  const RobotMergeReport& b = chained.robots[1];
+  const RobotMergeReport& b2 = chained.robots[2];
+  ASSERT_EQ(b.status, "fine matched");
+  expect_pose_near(b.T_world_robot, kPoseB, 0.01, 0.5);
+  EXPECT_EQ(b2.status, "no overlap: prior kept");
+  EXPECT_TRUE(b2.T_world_robot_prior.isApprox(b.T_world_robot));
+  EXPECT_TRUE(b2.T_world_robot.isApprox(b.T_world_robot));
+  // Its points moved with it: the merged cloud holds them where B's correction puts them.
+  EXPECT_EQ(chained.points_before_sampling, without.points_before_sampling);
+  const Eigen::Vector3d corner = kPoseB * robots[2].cloud_robot.points.front().cast<double>();  // where it truly is
+  const auto nearest_m = [&](const MergeResult& r) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3f& p : r.cloud_world.points) best = std::min(best, (p.cast<double>() - corner).norm());
+    return best;
+  };
+  EXPECT_LT(nearest_m(chained), 0.02);
+  EXPECT_GT(nearest_m(without), 0.05);
+
+  // A relative transform that is not rigid leaves the cloud out.
+  robots[2].T_after_robot->matrix()(0, 0) = 2.0;
+  const MergeResult bad = MapMerger(MapMergerConfig{}).merge(robots);
+  EXPECT_EQ(bad.robots[2].status, "bad prior (T_after_robot not a finite rigid transform): left out");
+  EXPECT_FALSE(bad.robots[2].placed);
+  EXPECT_EQ(bad.robots[1].status, "fine matched");
+}
+
 TEST(MapMerger, EmptyNaNAndNeverOverlappingRobotsLeaveTheOthersUnaffected) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),

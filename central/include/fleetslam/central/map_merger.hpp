@@ -44,6 +44,7 @@
 // few inliers) is discarded and the prior kept. Each case is logged and has its status in the report.
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -69,6 +70,11 @@ struct RobotCloud {
   Eigen::Isometry3d T_world_robot_prior = Eigen::Isometry3d::Identity();
   bool keep_prior_without_overlap = true;
   int after_id = -1;  // the robot_id of the input this one continues (tried after it is placed), or -1
+  // With after_id: this cloud's frame in the frame of the input it continues. Once that input is placed,
+  // its placement times T_after_robot becomes this cloud's prior (report: T_world_robot_prior), so a
+  // correction this merge makes to the earlier input carries over before this one is matched.
+  // T_world_robot_prior stands until then (and when the order is let go and this one is tried first).
+  std::optional<Eigen::Isometry3d> T_after_robot = std::nullopt;
 };
 
 // GICP near the answer: correspondences within 5 cm, normals within 45 degrees, sets sampled at 3 cm,
