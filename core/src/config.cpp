@@ -1,5 +1,6 @@
 #include "fleetslam/core/config.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -75,8 +76,22 @@ ConfigReader& ConfigReader::operator=(ConfigReader&&) noexcept = default;
 namespace {
 
 // A key given twice in one map: yaml-cpp keeps both and a lookup finds the first, so a later override was
-// dropped without a word (and never checked against its limits).
-void refuse_duplicate_keys(const YAML::Node& node, const std::string& name) {
+// dropped without a word (and never checked against its limits). Also refuses an alias inside the node it
+// names (`a: &x [*x]`): yaml-cpp builds a node that contains itself, which every walk would follow
+// forever. `open` holds the nodes being checked (the path from the root), `done` those checked already:
+// a node shared through aliases is checked once.
+void refuse_duplicate_keys(const YAML::Node& node, const std::string& name, std::vector<YAML::Node>& open,
+                           std::vector<YAML::Node>& done) {
+  if (!node.IsMap() && !node.IsSequence()) return;
+  const auto holds = [&](const std::vector<YAML::Node>& nodes) {
+    return std::any_of(nodes.begin(), nodes.end(), [&](const YAML::Node& n) { return n.is(node); });
+  };
+  if (holds(open)) {
+    throw InputError(name + ":" + std::to_string(node.Mark().line + 1),
+                     "a YAML alias refers to a node that contains it: the node would contain itself");
+  }
+  if (holds(done)) return;
+  open.push_back(node);
   if (node.IsMap()) {
     std::map<std::string, int> first_line;
     for (const auto& entry : node) {
@@ -89,11 +104,14 @@ void refuse_duplicate_keys(const YAML::Node& node, const std::string& name) {
                            "key '" + key + "' given twice (first on line " + std::to_string(it->second) + ")");
         }
       }
-      refuse_duplicate_keys(entry.second, name);
+      refuse_duplicate_keys(entry.first, name, open, done);
+      refuse_duplicate_keys(entry.second, name, open, done);
     }
-  } else if (node.IsSequence()) {
-    for (const auto& element : node) refuse_duplicate_keys(element, name);
+  } else {
+    for (const auto& element : node) refuse_duplicate_keys(element, name, open, done);
   }
+  open.pop_back();
+  done.push_back(node);
 }
 
 }  // namespace
@@ -113,7 +131,8 @@ ConfigReader ConfigReader::from_string(const std::string& text, const std::strin
   } catch (const YAML::Exception& e) {
     throw InputError(name + ":" + std::to_string(e.mark.line + 1), "malformed YAML: " + e.msg);
   }
-  refuse_duplicate_keys(impl->node, name);
+  std::vector<YAML::Node> open, done;
+  refuse_duplicate_keys(impl->node, name, open, done);
   if (impl->node.IsNull()) {
     impl->node.reset(YAML::Node(YAML::NodeType::Map));
   } else if (!impl->node.IsMap()) {

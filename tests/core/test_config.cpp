@@ -116,6 +116,14 @@ TEST(Config, ErrorsNameFileAndKey) {
             "agent.yaml:3: key 'levels' given twice (first on line 2)");
   EXPECT_EQ(error_of("required_value: 1\ninner:\n  radius_m: 1\n  radius_m: 2\n"),
             "agent.yaml:4: key 'radius_m' given twice (first on line 3)");
+  // An alias inside the node it names makes a node that contains itself (it overflowed the stack); an
+  // alias to a node elsewhere is fine.
+  for (const char* cycle : {"a: &x [*x]\n", "a: &x {b: *x}\n", "a: &x {b: [1, {c: *x}]}\n"}) {
+    const std::string error = error_of(std::string("required_value: 1\n") + cycle);
+    EXPECT_EQ(error.rfind("agent.yaml:2:", 0), 0u) << error;
+    EXPECT_NE(error.find("contains it"), std::string::npos) << error;
+  }
+  EXPECT_NO_THROW(ConfigReader::from_string("a: &x [1, {c: 2}]\nb: [*x, *x]\nc: {d: *x}\n", "t.yaml"));
   EXPECT_EQ(error_of("required_value: 1\n---\nlevels: 2000\n").rfind("agent.yaml:", 0), 0u);
   EXPECT_NE(error_of("required_value: 1\n---\nlevels: 2000\n").find("2 YAML documents"), std::string::npos);
   EXPECT_EQ(error_of("required_value: 1\nlevels: 010\n"),
