@@ -86,7 +86,7 @@ core::PointCloud DenseMapper::back_project(const cv::Mat& depth_m, const cv::Mat
   auto sample_point = [&](int r, int c, Eigen::Vector3f& p) {
     if (r < 0 || c < 0 || r >= sample_rows_ || c >= sample_cols_) return false;
     const float z = depth_at(r * stride, c * stride);
-    if (!(z >= min_d && z <= max_d)) return false;
+    if (!(z > 0.0f && z >= min_d && z <= max_d)) return false;  // 0: no measurement, even with min_depth_m 0
     const Eigen::Vector2f& ray = rays_[static_cast<std::size_t>(r) * sample_cols_ + c];
     if (!ray.allFinite()) return false;
     p = Eigen::Vector3f(ray.x() * z, ray.y() * z, z);

@@ -150,6 +150,20 @@ TEST(DenseMapping, SkipsMissingOutOfRangeAndFlyingPixels) {
   EXPECT_EQ(cloud.size(), static_cast<std::size_t>((19 + 40) * 120));
 }
 
+// Depth 0 means no measurement, also when min_depth_m is 0: such pixels became points at the camera centre.
+TEST(DenseMapping, ZeroDepthIsNoPointEvenWithMinDepthZero) {
+  const core::SensorRig rig = test::synthetic_rgbd_rig();
+  const FrameBuilder builder(FrameBuilderConfig{}, rig);
+  DenseMappingConfig config = config_with_stride(4);
+  config.min_depth_m = 0.0;
+  const DenseMapper mapper(config, builder);
+  core::SensorFrame f = flat_frame(rig, 0.0f);
+  f.depth_m(cv::Rect(300, 200, 40, 40)).setTo(1.0f);  // 10 x 10 samples at 1 m
+  const core::PointCloud cloud = mapper.keyframe_cloud(f);
+  EXPECT_EQ(cloud.size(), 100u);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_FLOAT_EQ(p.z(), 1.0f);
+}
+
 TEST(DenseMapping, UnusableDepthGivesAnEmptyCloud) {
   const core::SensorRig rig = test::synthetic_rgbd_rig();
   const FrameBuilder builder(FrameBuilderConfig{}, rig);
