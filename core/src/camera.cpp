@@ -88,7 +88,11 @@ bool PinholeCamera::project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv,
   const double inv_z = 1.0 / z;
   const Eigen::Vector2d xn(p_cam.x() * inv_z, p_cam.y() * inv_z);
   Eigen::Matrix2d J_dist;
-  const Eigen::Vector2d xd = distort(xn, J != nullptr ? &J_dist : nullptr);
+  const bool distorted = !distortion_.is_zero();
+  const Eigen::Vector2d xd = distort(xn, J != nullptr || distorted ? &J_dist : nullptr);
+  // Where the lens model folds over (beyond the calibrated region of strong radial distortion), a point far
+  // outside the field of view lands back inside the image: no projection, as undistort_normalized refuses.
+  if (distorted && !(J_dist.determinant() > 0.0)) return false;
   if (uv != nullptr) *uv = Eigen::Vector2d(fx_ * xd.x() + cx_, fy_ * xd.y() + cy_);
   if (J != nullptr) {
     // Chain rule: d(uv)/d(xd) * d(xd)/d(xn) * d(xn)/d(p).

@@ -204,6 +204,17 @@ TEST(Camera, UndistortNormalizedInvertsDistort) {
   }
 }
 
+// A lens valid over the whole image (monotonic out to the corners) folds over far outside it: a point 70
+// degrees off axis would land back inside the image. It does not project, and the image still does.
+TEST(Camera, PointsWhereTheLensModelFoldsOverDoNotProject) {
+  const PinholeCamera camera(640, 480, 300.0, 300.0, 320.0, 240.0, Distortion{-0.3, 0.1, 0.0, 0.0, -0.01});
+  ASSERT_TRUE(camera.unproject(Eigen::Vector2d(639.0, 479.0)).has_value());  // valid out to the corners
+  EXPECT_FALSE(camera.project(Eigen::Vector3d(2.7, 0.0, 1.0)).has_value());
+  Eigen::Vector2d uv;
+  EXPECT_FALSE(camera.project(Eigen::Vector3d(2.7, 0.0, 1.0), &uv, nullptr));
+  for (const Eigen::Vector3d& p : points_in_view(camera, 200, 5)) EXPECT_TRUE(camera.project(p).has_value());
+}
+
 std::string invalid_argument_message(int width, int height, double fx, double fy, double cx, double cy, Distortion d);
 
 // TUM-VI cam0 (equidistant, 512x512, about 190 degrees across).

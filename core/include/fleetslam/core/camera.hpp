@@ -75,9 +75,11 @@ class PinholeCamera {
   // std::invalid_argument when s is not positive and finite or the new size would be empty.
   PinholeCamera scaled(double s) const;
 
-  // Camera-frame point -> distorted pixel. nullopt when z <= min_depth (behind or on the camera plane).
+  // Camera-frame point -> distorted pixel. nullopt when z <= min_depth (behind or on the camera plane) or
+  // where distort() folds over (det of its Jacobian <= 0), as undistort_normalized refuses those points.
   std::optional<Eigen::Vector2d> project(const Eigen::Vector3d& p_cam) const;
-  // Same, with the 2x3 Jacobian d(uv)/d(p_cam) when J is not null. Returns false when z <= min_depth.
+  // Same, with the 2x3 Jacobian d(uv)/d(p_cam) when J is not null. Returns false where the other does not
+  // project.
   bool project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* uv, Eigen::Matrix<double, 2, 3>* J) const;
 
   // Distorted pixel -> point on the z = 1 plane (iterative undistortion). nullopt when it does not converge.

@@ -132,9 +132,9 @@ struct RpeConfig {
 //   m:      the first j > k whose distance travelled along the ground truth (summed over the paired
 //           ground-truth positions) from k reaches delta;
 //   s:      the first j > k whose ground-truth stamp is at least delta seconds after k's.
-// Each (k, j) gives E = (Q_k^-1 Q_j)^-1 (P_k^-1 P_j); the translational error is |trans(E)| and the
-// rotational error the angle of rot(E). est_scale multiplies the estimate's relative translations
-// (the sim3 alignment scale; rigid alignment does not change relative motion).
+// Each (k, j) gives E = (P_k^-1 P_j) (Q_k^-1 Q_j)^-1 (evaluate_rpe.py's order, above); the translational
+// error is |trans(E)| and the rotational error the angle of rot(E). est_scale multiplies the estimate's
+// relative translations (the sim3 alignment scale; rigid alignment does not change relative motion).
 struct RpeResult {
   RpeConfig config;
   std::vector<std::size_t> from_pair, to_pair;  // indices into the pairs
