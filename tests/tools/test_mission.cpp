@@ -37,6 +37,7 @@ MissionConfig waypoints_mission() {
 RobotObservation at(double x, double y, double yaw = 0.0, bool path_done = false) {
   RobotObservation o;
   o.tracking = true;
+  o.has_pose = true;
   o.pose_world = Pose2d{x, y, yaw};
   o.path_done = path_done;
   o.footprint_world = {{x, y}};
@@ -357,6 +358,38 @@ TEST(MissionPlanner, FloorARobotDroveOverIsFreeEvenWhereTheMapHasAnObstacle) {
   MissionPlanner no_footprint(m, planning(), {MissionRobot{"a", true, {{4.0, 2.0}}}});
   no_footprint.update(0.5, map, {at(1.0, 2.0)});
   EXPECT_EQ(no_footprint.grid().state(*no_footprint.grid().cell_of({1.0, 2.0})), planners::CellState::kOccupied);
+}
+
+// A free rig flies over things: its track does not clear the box under it, and where it hovers blocks
+// no ground robot.
+TEST(MissionPlanner, AFreeRigNeitherClearsFloorNorBlocksIt) {
+  core::PointCloud map = room(6.0, 4.0);
+  add_box(map, 0.85, 1.85, 1.15, 2.15, 0.0, 0.4);
+  MissionPlanner mission(waypoints_mission(), planning(), {MissionRobot{"a", true, {{5.0, 1.0}}}, MissionRobot{"rig", false, {}}});
+  const std::vector<PathCommand> commands = mission.update(0.5, map, {at(3.0, 1.0), at(1.0, 2.0)});
+  EXPECT_EQ(mission.grid().state(*mission.grid().cell_of({1.0, 2.0})), planners::CellState::kOccupied);
+  // The rig hovers at (4, 1), on a's straight way: a drives straight on.
+  MissionPlanner hovering(waypoints_mission(), planning(), {MissionRobot{"a", true, {{5.0, 1.0}}}, MissionRobot{"rig", false, {}}});
+  const std::vector<PathCommand> straight = hovering.update(0.5, map, {at(3.0, 1.0), at(4.0, 1.0)});
+  const PathCommand* c = command_for(straight, 0);
+  ASSERT_NE(c, nullptr);
+  for (const Eigen::Vector2d& p : c->path_world) EXPECT_NEAR(p.y(), 1.0, 0.1);
+}
+
+// A robot whose map has not started has no pose: it is not a standing obstacle at the world origin.
+TEST(MissionPlanner, ARobotWithoutAPoseIsNowhere) {
+  const core::PointCloud map = core::transformed(room(6.0, 4.0), Eigen::Isometry3d(Eigen::Translation3d(-3.0, -2.0, 0.0)));
+  PlanningConfig p = planning();
+  p.grid.bounds_xy_m = {-3.5, -2.5, 3.5, 2.5};
+  MissionPlanner mission(waypoints_mission(), p, {MissionRobot{"a", true, {{2.0, 0.0}}}, MissionRobot{"b", true, {{1.0, 1.0}}}});
+  RobotObservation nowhere;  // no pose, not tracking, pose_world (0, 0, 0) by default
+  const std::vector<PathCommand> commands = mission.update(0.5, map, {at(-2.0, 0.0), nowhere});
+  const PathCommand* c = command_for(commands, 0);
+  ASSERT_NE(c, nullptr);
+  for (const Eigen::Vector2d& q : c->path_world) EXPECT_NEAR(q.y(), 0.0, 0.1);
+  if (const PathCommand* b = command_for(commands, 1)) {
+    EXPECT_TRUE(b->path_world.empty()) << "b has nowhere to start from";
+  }
 }
 
 TEST(MissionPlanner, BoxedInRobotIsReportedAndItsGoalGivenUp) {

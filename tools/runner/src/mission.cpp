@@ -110,8 +110,11 @@ void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::
     };
     for (std::size_t i = 0; i < map_world.size(); ++i) grow(map_world.points[i].head<2>().cast<double>());
     for (std::size_t r = 0; r < robots.size(); ++r) {
-      for (const Eigen::Vector2d& p : robots[r].footprint_world) grow(p);
-      grow(robots[r].pose_world.xy());
+      // A free rig flies: where it is says nothing about the floor.
+      if (robots_[r].ground) {
+        for (const Eigen::Vector2d& p : robots[r].footprint_world) grow(p);
+        if (robots[r].has_pose) grow(robots[r].pose_world.xy());
+      }
       if (mission_.kind == MissionKind::kWaypoints) {
         for (const Eigen::Vector2d& p : robots_[r].waypoints_world) grow(p);
       }
@@ -125,9 +128,10 @@ void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::
   planning_grid_ = grid_;
   if (config.bounds_xy_m.empty()) return;  // nothing seen and no robot: an empty grid
   grid_.update(map_world, views_world);
-  std::vector<planners::Disk> driven;
-  for (const RobotObservation& robot : robots) {
-    for (const Eigen::Vector2d& p : robot.footprint_world) driven.push_back({p, mission_.footprint_free_radius_m});
+  std::vector<planners::Disk> driven;  // floor a ground robot drove over (a free rig passes above things)
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    if (!robots_[r].ground) continue;
+    for (const Eigen::Vector2d& p : robots[r].footprint_world) driven.push_back({p, mission_.footprint_free_radius_m});
   }
   if (mission_.footprint_free_radius_m > 0.0) grid_.mark_free(driven, /*clear_occupied=*/true);
   planning_grid_ = grid_;
@@ -321,7 +325,9 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     // The rim of the floor a robot stands on (its own footprint next to the unseen floor below its
     // camera) is a frontier too, but not a place to go.
     for (std::size_t r = 0; r < robots_.size(); ++r) {
-      if (robots_[r].ground) free_goal = free_goal && (g - robots[r].pose_world.xy()).norm() >= mission_.explore_min_goal_distance_m;
+      if (robots_[r].ground && robots[r].has_pose) {
+        free_goal = free_goal && (g - robots[r].pose_world.xy()).norm() >= mission_.explore_min_goal_distance_m;
+      }
     }
     if (free_goal) {
       goals.push_back(g);
@@ -442,6 +448,7 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
       order.push_back(r);
       continue;
     }
+    if (!robots_[r].ground || !robots[r].has_pose) continue;  // a free rig blocks no floor; nor does one nowhere yet
     // Marked occupied, the disk is then inflated by the robot radius: centres stay separation_m apart.
     const Eigen::Vector2d position = robots[r].pose_world.xy();
     standing.push_back({position,

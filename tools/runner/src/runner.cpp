@@ -345,12 +345,16 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       RobotObservation& o = seen[r];
       o.tracking = robots[r].tracking;
       o.path_done = robots[r].ground ? world.path_done(r) : true;
-      if (!robots[r].T_world_robot_true) continue;
+      if (!robots[r].T_world_robot_true) {  // its map has not started: no pose yet
+        o.tracking = false;
+        continue;
+      }
       const core::Trajectory trajectory = server.world_trajectory(static_cast<int>(r));
       if (trajectory.empty()) {
         o.tracking = false;
         continue;
       }
+      o.has_pose = true;
       o.pose_world = body_pose_2d(trajectory.back().T_world_body, robots[r].T_body_cam);
       Eigen::Vector2d last = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
       for (const core::StampedPose& p : trajectory) {

@@ -39,7 +39,9 @@ struct MissionRobot {
 
 // A robot as the central unit knows it at an update.
 struct RobotObservation {
-  bool tracking = false;            // its agent has a pose for the latest frame
+  bool tracking = false;            // its agent has a pose for the latest frame (implies has_pose)
+  bool has_pose = false;            // pose_world holds an estimate: without (its map has not started) the
+                                    // robot is nowhere on the grid, not at the origin
   planners::Pose2d pose_world;      // estimated body pose (fused world frame)
   bool path_done = true;            // its controller reached the end of its path (or has none)
   std::vector<Eigen::Vector2d> footprint_world;  // estimated positions it has driven over
