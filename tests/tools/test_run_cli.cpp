@@ -140,6 +140,27 @@ TEST(RunCli, ARobotWhoseMapStartsLateIsPlacedFromThatFrame) {
   EXPECT_LT(rig["ate_world_m"]["rmse"].get<double>(), 0.03) << rig.dump();
 }
 
+// Contact time is simulated time: bravo (10 Hz camera) drives into the east bookshelf while alpha's 30 Hz
+// camera sets the world's steps. Each step added 1 / 10 s for bravo: three times its time in contact.
+TEST(RunCli, ContactTimeIsSimulatedTimeWhateverTheCameraRate) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "bump.yaml")
+      << "scene: '" << kOfficeScene.string() << "'\nduration_s: 5\nseed: 3\nrobots:\n"
+      << "  - name: alpha\n    type: diff_drive\n    initial_pose: {x: 1.5, y: 2.0, yaw_deg: 0}\n"
+      << "    camera: {width: 320, height: 240, fovy_deg: 45, rate_hz: 30, depth: true}\n"
+      << "  - name: bravo\n    type: diff_drive\n    initial_pose: {x: 4.5, y: 2.5, yaw_deg: 0}\n"
+      << "    camera: {width: 320, height: 240, fovy_deg: 45, rate_hz: 10, depth: true}\n"
+      << "    waypoints: [{x: 6.5, y: 2.5}]\n";
+  const fs::path out = dir / "run";
+  const RunResult r = run("-q run '" + (dir / "bump.yaml").string() + "' --out '" + out.string() + "'");
+  ASSERT_LE(r.exit_code, 1) << r.output;
+  const nlohmann::json bravo = nlohmann::json::parse(read_text(out / "metrics.json"))["robots"][1];
+  ASSERT_GE(bravo["collisions"].get<int>(), 1) << "bravo must touch the wall for this test";
+  const double first_s = bravo["collision_events"][0]["t_s"].get<double>();
+  EXPECT_GT(bravo["contact_s"].get<double>(), 0.0);
+  EXPECT_LE(bravo["contact_s"].get<double>(), 5.0 - first_s + 0.05) << bravo.dump();
+}
+
 // --seed replaces the scenario's seed before the robots derive theirs from it: the simulation's noise
 // follows it, and a robot with a seed of its own keeps that.
 TEST(RunCli, SeedReachesTheRobots) {

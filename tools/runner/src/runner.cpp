@@ -184,7 +184,7 @@ struct RobotRun {
   nlohmann::json keyframe_decisions = nlohmann::json::array();  // [t_s, score, inserted]
   std::vector<double> tracking_ms, mapping_ms, dense_ms, loop_ms, total_ms;
   int collisions = 0;        // times it started touching the scene or another robot
-  double contact_s = 0.0;    // simulated time spent in contact (camera-tick resolution)
+  double contact_s = 0.0;    // simulated time spent in contact (resolution: the world's steps, the sensor ticks)
   bool in_contact = false;
   nlohmann::json collision_events = nlohmann::json::array();
 };
@@ -381,6 +381,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     last_update_s = t_s;
   };
 
+  double previous_step_s = core::ns_to_seconds(world.time_ns());  // contact time: simulated time between steps
   while (!world.finished()) {
     std::vector<core::SensorFrame> frames = world.step();
     for (core::SensorFrame& frame : frames) {
@@ -428,6 +429,8 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     }
     server.integrate_all(link);
     const double t_s = core::ns_to_seconds(world.time_ns());
+    const double step_s = t_s - previous_step_s;  // to the next sensor tick of any robot
+    previous_step_s = t_s;
     for (std::size_t r = 0; r < robots.size(); ++r) {
       RobotRun& robot = robots[r];
       const sim::RobotTruth truth = world.truth(r);
@@ -438,7 +441,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         robot.collision_events.push_back({{"t_s", t_s}, {"x", p.x()}, {"y", p.y()}});
         logger->warn("run: {} touches the scene at {:.2f} s ({:.2f}, {:.2f})", robot.name, t_s, p.x(), p.y());
       }
-      if (contact) robot.contact_s += 1.0 / std::max(1e-9, world.robot_config(r).camera.rate_hz);
+      if (contact) robot.contact_s += step_s;
       robot.in_contact = contact;
     }
     // Early updates: a robot that finished its path with work left, or whose estimate reached its goal.
