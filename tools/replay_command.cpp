@@ -308,25 +308,32 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
   core::Progress progress = make_progress(total, "frames", logger);
   std::size_t k = 0;
   std::vector<std::int64_t> first_index(parts, -1);
+  std::vector<std::int64_t> map_start(parts, -1);  // the frame that started the robot's map
   while (std::optional<core::SensorFrame> frame = source.next()) {
     const std::size_t r = std::min(parts - 1, k * parts / total);
-    if (first_index[r] < 0) {
-      if (!frame->T_world_cam_gt) {
-        throw InputError(o.dataset, "--split needs ground truth at each part's first frame (frame " +
-                                        std::to_string(k) + ") for the robot's initial-pose prior");
-      }
-      first_index[r] = static_cast<std::int64_t>(k);
-      server.add_robot(central::RobotSpec{static_cast<int>(r), names[r], *frame->T_world_cam_gt, {}});
-    }
+    if (first_index[r] < 0) first_index[r] = static_cast<std::int64_t>(k);
     frame->robot_id = static_cast<int>(r);
     frame->sequence = static_cast<std::int64_t>(k) - first_index[r];
     if (frame->T_world_cam_gt) groundtruths[r].push_back({frame->t_ns, *frame->T_world_cam_gt});
-    link.send(agents[r].process(*frame));
+    slam::AgentUpdate update = agents[r].process(*frame);
+    // The robot's frame is its agent's world: cam0 of the frame that started its map, which need not be
+    // the part's first frame (one without texture or depth starts none). Its prior is that frame's pose.
+    if (map_start[r] < 0 && update.status == slam::FrameStatus::kInitialized) {
+      if (!frame->T_world_cam_gt) {
+        throw InputError(o.dataset, "--split needs ground truth at the frame that starts each part's map (frame " +
+                                        std::to_string(k) + ") for the robot's initial-pose prior");
+      }
+      map_start[r] = static_cast<std::int64_t>(k);
+      server.add_robot(central::RobotSpec{static_cast<int>(r), names[r], *frame->T_world_cam_gt, {}});
+    }
+    if (map_start[r] >= 0) link.send(std::move(update));  // before its map starts, nothing to send
     server.integrate_all(link);
     progress.update(++k);
   }
   progress.finish();
-  for (slam::Agent& agent : agents) link.send(agent.finish());  // the workers' last changes (threaded)
+  for (std::size_t r = 0; r < parts; ++r) {
+    if (map_start[r] >= 0) link.send(agents[r].finish());  // the workers' last changes (threaded)
+  }
   server.integrate_all(link);
   const central::ServerMergeReport& report = server.merge();
   server.write_outputs(out);
@@ -335,9 +342,9 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
   for (std::size_t r = 0; r < parts; ++r) {
     const int id = static_cast<int>(r);
     core::write_trajectory(out / names[r] / "groundtruth.txt", groundtruths[r], core::TrajectoryFormat::kTum);
-    const core::Trajectory world = server.world_trajectory(id);
+    const core::Trajectory world = map_start[r] >= 0 ? server.world_trajectory(id) : core::Trajectory{};
     nlohmann::json entry = {{"name", names[r]}, {"frames", groundtruths[r].size()}, {"tracked", world.size()},
-                            {"first_frame", first_index[r]}};
+                            {"first_frame", first_index[r]}, {"map_start_frame", map_start[r]}};
     for (const auto& [mode, key] : {std::pair{core::AlignmentMode::kNone, "ate_world_m"}, std::pair{core::AlignmentMode::kSe3, "ate_se3_m"}}) {
       const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world), mode);
       if (ate.measured()) entry[key] = {{"rmse", ate.stats.rmse}, {"mean", ate.stats.mean}, {"max", ate.stats.max}};

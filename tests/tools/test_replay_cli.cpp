@@ -14,6 +14,7 @@
 #include <string>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "cli_test_util.hpp"
 
@@ -136,6 +137,45 @@ TEST(ReplayCli, SplitRunsTheHalvesAsTwoRobotsAndMergesTheirMaps) {
   }
   EXPECT_EQ(core::read_ply((out / "merged_map.ply").string()).size(), merge["points_after_filter"].get<std::size_t>());
   EXPECT_EQ(core::read_trajectory(out / "robot_b" / "trajectory.txt").size(), 100u);
+}
+
+// A part whose first frames start no map (their depth blanked) is placed from the frame that starts it:
+// the robot's frame is that frame's camera, so its prior is that frame's true pose, not its first frame's.
+TEST(ReplayCli, SplitPlacesAPartFromTheFrameThatStartsItsMap) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  const fs::path copy = dir / "tum";
+  fs::create_directories(copy / "depth");
+  for (const char* file : {"rgb.txt", "depth.txt", "groundtruth.txt", "accelerometer.txt"}) fs::copy_file(kTum / file, copy / file);
+  fs::create_directory_symlink(kTum / "rgb", copy / "rgb");
+  std::vector<fs::path> depth_files;
+  for (const auto& entry : fs::directory_iterator(kTum / "depth")) depth_files.push_back(entry.path());
+  std::sort(depth_files.begin(), depth_files.end());
+  ASSERT_EQ(depth_files.size(), 200u);
+  for (std::size_t i = 0; i < depth_files.size(); ++i) {
+    if (i >= 100 && i < 106) {  // part b's first frames: no depth, no map
+      ASSERT_TRUE(cv::imwrite((copy / "depth" / depth_files[i].filename()).string(), cv::Mat(480, 640, CV_16UC1, cv::Scalar(0))));
+    } else {
+      fs::create_symlink(depth_files[i], copy / "depth" / depth_files[i].filename());
+    }
+  }
+  const fs::path out = dir / "run";
+  const RunResult r = run("-q replay '" + copy.string() + "' --calibration '" + (kData / "calib" / "TUM1.yaml").string() +
+                          "' --split 2 --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
+  const nlohmann::json& b = metrics["robots"][1];
+  ASSERT_EQ(b["first_frame"], 100) << b.dump();
+  const std::int64_t start = b["map_start_frame"].get<std::int64_t>();
+  EXPECT_GE(start, 105) << b.dump();
+  EXPECT_EQ(b["tracked"].get<std::int64_t>(), 200 - start);
+  // Its prior is the true pose of the frame that started its map.
+  const core::Trajectory truth = core::read_trajectory(out / "robot_b" / "groundtruth.txt");
+  ASSERT_EQ(truth.size(), 100u);
+  const Eigen::Vector3d at_start = truth[static_cast<std::size_t>(start - 100)].T_world_body.translation();
+  const nlohmann::json& prior = metrics["merge"]["robots"][1]["T_world_robot_prior"]["t"];
+  EXPECT_LT((Eigen::Vector3d(prior[0].get<double>(), prior[1].get<double>(), prior[2].get<double>()) - at_start).norm(), 1e-6)
+      << prior.dump();
 }
 
 TEST(ReplayCli, SplitNeedsEnoughFrames) {

@@ -42,6 +42,7 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
   SamplingRow row;
   row.robots = static_cast<int>(parts.size());
   std::vector<core::Trajectory> groundtruths(parts.size());
+  std::vector<bool> registered(parts.size(), false);  // its map started: the server knows it
   // The time the robots' frames span together: the whole sequence when it is split into consecutive
   // parts, the longest robot when they run side by side (the paper's "dataset length").
   std::optional<core::TimeNs> span_first, span_last;
@@ -52,23 +53,27 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
     std::int64_t sequence = 0;
     core::TimeNs first_t = 0, last_t = 0;
     while (std::optional<core::SensorFrame> frame = source->next()) {
-      if (sequence == 0) {
-        if (!frame->T_world_cam_gt) {
-          throw InputError(part.sequence.folder.string(), "frame " + std::to_string(part.start) +
-                                                              " has no ground-truth pose for robot " + part.name +
-                                                              "'s initial-pose prior");
-        }
-        server.add_robot(central::RobotSpec{static_cast<int>(r), part.name, *frame->T_world_cam_gt, {}});
-        first_t = frame->t_ns;
-      }
+      if (sequence == 0) first_t = frame->t_ns;
       last_t = frame->t_ns;
       frame->robot_id = static_cast<int>(r);
       frame->sequence = sequence++;
       if (frame->T_world_cam_gt) groundtruths[r].push_back({frame->t_ns, *frame->T_world_cam_gt});
-      link.send(agent.process(*frame));
+      slam::AgentUpdate update = agent.process(*frame);
+      // The robot's frame is its agent's world: cam0 of the frame that started its map (not necessarily its
+      // first frame). Its prior is that frame's true pose.
+      if (!registered[r] && update.status == slam::FrameStatus::kInitialized) {
+        if (!frame->T_world_cam_gt) {
+          throw InputError(part.sequence.folder.string(), "frame " + std::to_string(part.start + frame->sequence) +
+                                                              " starts robot " + part.name +
+                                                              "'s map but has no ground-truth pose for its initial-pose prior");
+        }
+        server.add_robot(central::RobotSpec{static_cast<int>(r), part.name, *frame->T_world_cam_gt, {}});
+        registered[r] = true;
+      }
+      if (registered[r]) link.send(std::move(update));  // before its map starts, nothing to send
       server.integrate_all(link);
     }
-    link.send(agent.finish());  // the workers' last changes (threaded)
+    if (registered[r]) link.send(agent.finish());  // the workers' last changes (threaded)
     server.integrate_all(link);
     row.frames += static_cast<std::size_t>(sequence);
     if (sequence > 0) {
@@ -83,7 +88,7 @@ SamplingRow SamplingExperiment::run_robots(const std::vector<RobotPart>& parts) 
   row.points_after_filter = report.merge.points_after_filter;
   for (const central::RobotFusionReport& robot : report.robots) row.registered += robot.registered ? 1 : 0;
   for (std::size_t r = 0; r < parts.size(); ++r) {
-    const core::Trajectory world = server.world_trajectory(static_cast<int>(r));
+    const core::Trajectory world = registered[r] ? server.world_trajectory(static_cast<int>(r)) : core::Trajectory{};
     const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world),
                                                   core::AlignmentMode::kNone);
     row.robot_ate_m.push_back(ate.measured() ? ate.stats.rmse : std::numeric_limits<double>::quiet_NaN());
