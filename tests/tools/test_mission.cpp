@@ -392,6 +392,24 @@ TEST(MissionPlanner, ARobotWithoutAPoseIsNowhere) {
   }
 }
 
+// Grids sized from the map never throw during a run: a point 1 km away would need more than max_cells
+// (the last grid is kept), and one robot on an empty map with no margin is one cell, not empty bounds.
+TEST(MissionPlanner, AGridSizedFromTheMapNeverThrows) {
+  PlanningConfig p = planning();
+  p.grid.bounds_xy_m.clear();
+  MissionPlanner mission(waypoints_mission(), p, {MissionRobot{"a", true, {{4.0, 2.0}}}});
+  const core::PointCloud map = room(6.0, 4.0);
+  ASSERT_NO_THROW(mission.update(0.5, map, {at(1.0, 2.0)}));
+  const int width = mission.grid().width();
+  core::PointCloud far = map;
+  far.points.push_back(Eigen::Vector3f(1000.0f, 1000.0f, 0.5f));
+  ASSERT_NO_THROW(mission.update(1.0, far, {at(1.0, 2.0)}));
+  EXPECT_EQ(mission.grid().width(), width) << "the last grid stays";
+  p.grid.margin_m = 0.0;
+  MissionPlanner bare(waypoints_mission(), p, {MissionRobot{"a", true, {}}});
+  EXPECT_NO_THROW(bare.update(0.5, core::PointCloud{}, {at(1.0, 2.0)}));
+}
+
 TEST(MissionPlanner, BoxedInRobotIsReportedAndItsGoalGivenUp) {
   // Cartons all round robot a, 0.15 m from its centre (its radius is 0.2): no free cell for its centre
   // within reach. b carries on.

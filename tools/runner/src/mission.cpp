@@ -11,6 +11,7 @@
 
 #include <spdlog/logger.h>
 
+#include "fleetslam/core/error.hpp"
 #include "fleetslam/planners/deconfliction.hpp"
 #include "fleetslam/planners/goal_assignment.hpp"
 
@@ -120,14 +121,23 @@ void MissionPlanner::rebuild_grid(const core::PointCloud& map_world, const std::
       }
     }
     if (lo.allFinite() && hi.allFinite()) {
+      hi = hi.cwiseMax(lo + Eigen::Vector2d::Constant(config.resolution_m));  // one point, no margin: one cell
       config.bounds_xy_m = {lo.x() - config.margin_m, lo.y() - config.margin_m, hi.x() + config.margin_m,
                             hi.y() + config.margin_m};
     }
   }
-  grid_ = planners::OccupancyGrid(config);
+  planners::OccupancyGrid grid(config);
+  if (!config.bounds_xy_m.empty()) {
+    try {
+      grid.update(map_world, views_world);
+    } catch (const InputError& e) {  // bounds needing more than max_cells (a far-off point or placement)
+      logger_->warn("mission: planning grid kept from the last update: {}", e.what());
+      return;
+    }
+  }
+  grid_ = std::move(grid);
   planning_grid_ = grid_;
   if (config.bounds_xy_m.empty()) return;  // nothing seen and no robot: an empty grid
-  grid_.update(map_world, views_world);
   std::vector<planners::Disk> driven;  // floor a ground robot drove over (a free rig passes above things)
   for (std::size_t r = 0; r < robots.size(); ++r) {
     if (!robots_[r].ground) continue;

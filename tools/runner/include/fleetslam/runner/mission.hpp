@@ -13,8 +13,9 @@
 // their paths do not conflict; the other robots (standing, or keeping a path that is still clear) are
 // obstacles where they are. A goal that fails to plan
 // max_plan_failures times is given up and reported; a robot that lost tracking drives back along its
-// trail (lost_backtrack_m) and waits there until its agent relocalises. Nothing here throws for a bad map or an unreachable goal: it is all in the
-// reports.
+// trail (lost_backtrack_m) and waits there until its agent relocalises. Nothing here throws for a bad map
+// or an unreachable goal: it is all in the reports (a map whose extent needs more than the grid's
+// max_cells keeps the last grid, with a warning).
 
 #include <cstddef>
 #include <optional>
