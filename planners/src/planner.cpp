@@ -368,8 +368,10 @@ PlanResult PathPlanner::plan(const OccupancyGrid& grid, const Pose2d& start_worl
     logger_->debug("planner: simplified path touches an obstacle; using the raw path");
     result.path_world = to_poses(raw, config_, start_world);
   }
-  if (config_.preferred_clearance_m > 0.0) {
+  if (config_.preferred_clearance_m > 0.0 && config_.state_space == StateSpaceKind::kSe2) {
     // Kept away from obstacles where it can be; a path that this makes touch anything stays as it was.
+    // Not a Dubins or Reeds-Shepp path: moved, its poses would leave the turning-radius curves, and yaws
+    // set along the polyline would turn a reverse segment's round.
     std::vector<Pose2d> clear = keep_clear(grid, result.path_world, config_.unknown_cells, config_.preferred_clearance_m);
     if (first_blocked_pose(grid, clear, config_.unknown_cells, blocked) < 0) result.path_world = std::move(clear);
   }

@@ -233,6 +233,28 @@ TEST(PathPlanner, APreferredClearanceCentresThePathInADoorway) {
   EXPECT_GT(min_clear, min_tight + 0.1);
 }
 
+// A Dubins or Reeds-Shepp path stays on its curves (and its reverse segments keep their yaws): the
+// preferred clearance leaves it as planned.
+TEST(PathPlanner, APreferredClearanceLeavesCurvePathsAsPlanned) {
+  const OccupancyGrid grid = make_grid(6.0, 4.0, [](const Eigen::Vector2d& c) {
+    return c.x() > 2.9 && c.x() < 3.1 && (c.y() < 1.5 || c.y() > 2.5);
+  });
+  for (const StateSpaceKind space : {StateSpaceKind::kDubins, StateSpaceKind::kReedsShepp}) {
+    PathPlannerConfig c;
+    c.state_space = space;
+    c.max_iterations = 5000;
+    const PlanResult plain = PathPlanner(c).plan(grid, Pose2d{1.0, 0.6, 0.0}, {5.0, 0.6});
+    c.preferred_clearance_m = 0.45;
+    const PlanResult clear = PathPlanner(c).plan(grid, Pose2d{1.0, 0.6, 0.0}, {5.0, 0.6});
+    ASSERT_NE(plain.status, PlanStatus::kNoPath);
+    ASSERT_EQ(clear.path_world.size(), plain.path_world.size());
+    for (std::size_t i = 0; i < plain.path_world.size(); ++i) {
+      EXPECT_EQ(clear.path_world[i].xy(), plain.path_world[i].xy());
+      EXPECT_EQ(clear.path_world[i].yaw_rad, plain.path_world[i].yaw_rad);
+    }
+  }
+}
+
 TEST(PathPlanner, ConfigFromYaml) {
   const auto reader = core::ConfigReader::from_string(
       "planner: rrt_star\nstate_space: dubins\nturning_radius_m: 0.5\nunknown_cells: free\nmax_iterations: 100\n",

@@ -58,7 +58,8 @@ struct PathPlannerConfig {
   bool check_reachability = true;         // flood fill before sampling (see the file comment)
   double path_step_m = 0.05;              // spacing of the returned path's poses
   // > 0: the path's interior is moved away from obstacles up to this clearance (from the nearest obstacle
-  // cell, as OccupancyGrid::clearance_m) where the space allows; 0: the simplified path as it is.
+  // cell, as OccupancyGrid::clearance_m) where the space allows; 0: the simplified path as it is. SE(2)
+  // only: Dubins and Reeds-Shepp paths stay on their curves.
   double preferred_clearance_m = 0.0;
 
   template <class V>
