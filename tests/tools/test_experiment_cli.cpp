@@ -184,5 +184,19 @@ TEST(ExperimentCliErrors, BadSettingsExitTwo) {
   expect_exit_two("matching --frames -5", "--frames");
 }
 
+// Renderings and sequences are named by the scenario's file name: two of one name are refused up front
+// (the second rendering replaced the first, and the tables failed after all the timing work).
+TEST(ExperimentCliErrors, TwoScenariosOfOneNameExitTwo) {
+  const fs::path dir = test::fresh_test_dir("fleetslam_test_experiment_cli") / "same_name";
+  for (const char* sub : {"a", "b"}) {
+    fs::create_directories(dir / sub);
+    fs::copy_file(fs::path(FLEETSLAM_SOURCE_DIR) / "tests" / "scenarios" / "office_scripted.yaml", dir / sub / "office.yaml");
+  }
+  const test::CliResult r = test::run_cli("experiment matching --tum none --euroc none --scenario " +
+                                          quoted(dir / "a" / "office.yaml") + " " + quoted(dir / "b" / "office.yaml"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("have one name (office)"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace fleetslam

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -127,6 +128,16 @@ std::vector<SequenceSpec> real_sequences(const DataSourcesConfig& config) {
 }
 
 std::vector<SequenceSpec> render_synthetic(const DataSourcesConfig& config, const core::Logger& logger) {
+  // Renderings and sequences are named by the file name: two scenarios of one name would share them.
+  std::map<std::string, fs::path> by_stem;
+  for (const fs::path& scenario_file : config.scenarios) {
+    const auto [it, inserted] = by_stem.emplace(scenario_file.stem().string(), scenario_file);
+    if (!inserted) {
+      throw InputError("--scenario", "'" + it->second.string() + "' and '" + scenario_file.string() +
+                                         "' have one name (" + it->first +
+                                         "), which names their renderings and sequences: give each its own");
+    }
+  }
   std::vector<SequenceSpec> sequences;
   for (const fs::path& scenario_file : config.scenarios) {
     sim::ScenarioConfig world = runner::load_run_scenario(scenario_file).world;
