@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli_test_util.hpp"
+#include "fleetslam/experiments/results_document.hpp"
 
 namespace fleetslam {
 namespace {
@@ -196,6 +197,23 @@ TEST(ExperimentCliErrors, TwoScenariosOfOneNameExitTwo) {
                                           quoted(dir / "a" / "office.yaml") + " " + quoted(dir / "b" / "office.yaml"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("have one name (office)"), std::string::npos) << r.output;
+}
+
+// A sampling row with nothing merged has no reduction (NaN): the document says so instead of calling it
+// within the paper's range (NaN failed both comparisons).
+TEST(ResultsDocument, NothingMergedIsNoReduction) {
+  const fs::path file = test::fresh_test_dir("fleetslam_test_experiment_cli") / "empty_merge" / "RESULTS.md";
+  experiments::ResultsInput input;
+  experiments::SamplingResult sampling;
+  experiments::SamplingRow row;
+  row.dataset = "empty";
+  row.robots = 2;
+  sampling.rows.push_back(row);
+  input.sampling = sampling;
+  experiments::write_results_document(input, file);
+  const std::string text = read_text(file);
+  EXPECT_NE(text.find("`empty`: no points were merged"), std::string::npos) << text;
+  EXPECT_EQ(text.find("within it"), std::string::npos) << text;
 }
 
 }  // namespace

@@ -173,7 +173,7 @@ std::vector<fs::path> write_keyframes_outputs(const KeyframesResult& result, con
   write_text(written[1], keyframes_runs_table(result).csv());
   std::string md = "# Keyframe policies (paper Table 2)\n\nATE (m, SE(3) alignment) averaged over " +
                    std::to_string(result.config.runs) + " run(s) per policy" +
-                   (result.config.runs >= 3 ? " with the largest and smallest value of each statistic dropped" : "") + " (" + std::string(result.config.threaded ? "threaded mode" : "deterministic mode, loop-closing seed = run") + ").\n";
+                   (result.config.runs >= 3 ? " with the largest and smallest value of each statistic dropped where at least 3 runs gave one" : "") + " (" + std::string(result.config.threaded ? "threaded mode" : "deterministic mode, loop-closing seed = run") + ").\n";
   std::vector<std::string> names;
   for (const KeyframesRow& r : result.rows) names.push_back(r.sequence);
   for (const std::string& sequence : unique_in_order(names)) {
