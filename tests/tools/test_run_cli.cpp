@@ -99,9 +99,10 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   std::ofstream(dir / "strict.yaml") << scenario << "criteria:\n  max_ate_m: 0.0\n  min_real_time_factor: 1000\n";
   const fs::path out = dir / "run";
   // An earlier run of a scenario with a robot "ghost" left its folder: removed. A folder holding anything
-  // else, and files of other names, stay.
+  // else, an empty folder and files of other names stay.
   fs::create_directories(out / "ghost");
   fs::create_directories(out / "notes");
+  fs::create_directories(out / "plots");
   std::ofstream(out / "ghost" / "trajectory.txt") << "1 0 0 0 0 0 0 1\n";
   std::ofstream(out / "ghost" / "map.ply") << "stale\n";
   std::ofstream(out / "notes" / "trajectory.txt") << "mine\n";
@@ -113,6 +114,7 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   EXPECT_TRUE(fs::exists(out / "notes" / "trajectory.txt"));
   EXPECT_TRUE(fs::exists(out / "notes" / "todo.md"));
   EXPECT_TRUE(fs::exists(out / "todo.md"));
+  EXPECT_TRUE(fs::is_directory(out / "plots"));
   EXPECT_NE(read_text(out / "run.log").find("removed 2 output file(s) of an earlier run"), std::string::npos);
   EXPECT_NE(r.output.find("failed its pass criteria: ate_world_rmse_m (alpha)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("real_time_factor"), std::string::npos) << r.output;

@@ -71,7 +71,7 @@ planners::Pose2d body_pose_2d(const Eigen::Isometry3d& T_world_cam, const Eigen:
 // The files a run writes in its folder and in each robot's folder (central::Server::write_outputs and the
 // ground truth). An earlier run's are removed first, so that what the folder holds afterwards is this
 // run's: a stale occupancy.pgm, or the folder of a robot the new scenario does not have, read as this
-// run's. Only these names are touched: a robot folder goes only when it held nothing else.
+// run's. Only these names are touched: a robot folder goes only when it held some of them and nothing else.
 std::size_t remove_earlier_outputs(const fs::path& out) {
   const std::vector<std::string> run_files = {"scenario.yaml", "occupancy.pgm", "mission.json", "metrics.json",
                                               "report.html", "merged_map.ply", "merge.json"};
@@ -82,11 +82,13 @@ std::size_t remove_earlier_outputs(const fs::path& out) {
   for (fs::directory_iterator it(out, ec), end; !ec && it != end; it.increment(ec)) {
     if (!it->is_directory(ec) || it->is_symlink(ec)) continue;
     bool only_robot_files = true;
+    std::size_t files = 0;
     for (fs::directory_iterator f(it->path(), ec); !ec && f != end; f.increment(ec)) {
       only_robot_files = only_robot_files && f->is_regular_file(ec) && !f->is_symlink(ec) &&
                          std::count(robot_files.begin(), robot_files.end(), f->path().filename().string()) > 0;
+      ++files;
     }
-    if (!ec && only_robot_files) robot_folders.push_back(it->path());
+    if (!ec && only_robot_files && files > 0) robot_folders.push_back(it->path());  // an empty folder is the user's
     ec.clear();
   }
   for (const fs::path& folder : robot_folders) {
