@@ -81,6 +81,7 @@ struct Renderer::Impl {
   mjvOption option{};
   std::vector<unsigned char> bgra;          // bottom-up rows read from the offscreen buffer
   std::vector<std::uint32_t> depth_stencil;  // bottom-up rows: 24-bit depth, 8-bit stencil
+  std::vector<unsigned char> sky_scratch;   // the colour of the depth pass without the skybox (unused)
   double near_m = 0.0;
   double far_m = 0.0;
 };
@@ -131,6 +132,7 @@ void Renderer::render(const mjModel* model, mjData* data, int camera_id, int wid
   camera.fixedcamid = camera_id;
   mjv_updateScene(model, data, &impl_->option, nullptr, &camera, mjCAT_ALL, &impl_->scene);
   impl_->scene.flags[mjRND_SHADOW] = options.shadows ? 1 : 0;
+  impl_->scene.flags[mjRND_SKYBOX] = 1;
   const mjrRect viewport{0, 0, width, height};
   mjr_render(viewport, &impl_->scene, &impl_->context);
 
@@ -138,7 +140,20 @@ void Renderer::render(const mjModel* model, mjData* data, int camera_id, int wid
   const bool depth = options.want_depth && depth_m != nullptr;
   impl_->bgra.resize(pixels * 4);
   impl_->depth_stencil.resize(depth ? pixels : 0);
-  read_offscreen(viewport, impl_->bgra.data(), depth ? impl_->depth_stencil.data() : nullptr);
+  // A skybox is drawn as a shell 0.7 zfar around the camera, with depth: the depth buffer would hold it
+  // as a surface hundreds of metres away where nothing was hit. With one, the colour comes from this pass
+  // and the depth from a second without it (sky pixels then stay at the far plane: depth 0).
+  bool skybox = false;
+  for (int t = 0; t < model->ntex && !skybox; ++t) skybox = model->tex_type[t] == mjTEXTURE_SKYBOX;
+  if (depth && skybox) {
+    read_offscreen(viewport, impl_->bgra.data(), nullptr);
+    impl_->scene.flags[mjRND_SKYBOX] = 0;
+    mjr_render(viewport, &impl_->scene, &impl_->context);
+    impl_->sky_scratch.resize(pixels * 4);
+    read_offscreen(viewport, impl_->sky_scratch.data(), impl_->depth_stencil.data());
+  } else {
+    read_offscreen(viewport, impl_->bgra.data(), depth ? impl_->depth_stencil.data() : nullptr);
+  }
 
   // Rows come bottom-up: output row r is input row height - 1 - r, BGRA -> BGR by one SIMD call per
   // row (hal::cvtBGRtoBGR dispatches to the CPU's widest instructions, and a single row stays on the

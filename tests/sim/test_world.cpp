@@ -94,6 +94,38 @@ TEST(World, DepthOfAFrontoParallelWallIsExact) {
   EXPECT_LT(worst, 1e-3);
 }
 
+// Sky is no surface: depth 0 where a skybox shows. MuJoCo draws the skybox as a shell 0.7 zfar around the
+// camera, which the depth buffer held as a wall hundreds of metres away.
+TEST(World, ASkyboxHasNoDepth) {
+  const fs::path dir = fs::temp_directory_path() / "fleetslam_test_world_skybox";
+  fs::create_directories(dir);
+  std::ofstream(dir / "scene.xml")
+      << "<mujoco model=\"sky\">\n  <asset><texture type=\"skybox\" builtin=\"gradient\" rgb1=\"0.3 0.5 0.7\" "
+         "rgb2=\"0 0 0\" width=\"32\" height=\"32\"/>\n    <material name=\"glow\" rgba=\"1 0 0 1\" emission=\"1\"/></asset>\n"
+         "  <worldbody>\n"
+      << "    <light pos=\"0 0 5\" dir=\"0 0 -1\" castshadow=\"false\"/>\n" << kWallScene << "  </worldbody>\n</mujoco>\n";
+  // Pitched up 60 degrees in front of the 3 m wall: its top edge crosses the image, sky above it.
+  World world(scenario_in(dir, {still_rig("cam", PoseConfig{1.0, 0.0, 1.25, 0, -60, 0})}), nullptr);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 1u);
+  const cv::Mat& depth = frames[0].depth_m;
+  int sky = 0, near = 0, far = 0;
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float z = depth.at<float>(v, u);
+      sky += z == 0.0f ? 1 : 0;
+      near += z > 0.0f && z < 20.0f ? 1 : 0;
+      far += z >= 20.0f ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(far, 0);
+  EXPECT_GT(sky, depth.rows * depth.cols / 10);
+  EXPECT_GT(near, depth.rows * depth.cols / 10);
+  // The colour still shows the sky: the top row is the skybox's, not the background's black.
+  const cv::Vec3b top = frames[0].image.at<cv::Vec3b>(0, depth.cols / 2);
+  EXPECT_GT(top[0] + top[1] + top[2], 30) << top;
+}
+
 TEST(World, NearbyWallsAreNotClippedInLargeScenes) {
   // A large scene (MuJoCo's default near plane would be over 0.3 m) and a camera 12 cm from a wall.
   const fs::path dir = write_scene("near", std::string(kWallScene) +
