@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <future>
 #include <limits>
 #include <optional>
@@ -74,7 +75,7 @@ struct RobotRuntime {
   int camera_id = -1;
   int camera_right_id = -1;
   int qpos_x = -1, qpos_y = -1, qpos_yaw = -1;
-  int dof_x = -1, dof_y = -1;
+  int dof_x = -1, dof_y = -1, dof_yaw = -1;
   int actuator_vx = -1, actuator_vy = -1, actuator_wz = -1;
   int accel_adr = -1, gyro_adr = -1;
   core::PinholeCamera camera;
@@ -117,6 +118,7 @@ struct World::Impl {
   core::ImuSample imu_sample(RobotRuntime& robot, core::TimeNs t_ns);
   core::SensorFrame render_frame(RobotRuntime& robot, std::size_t index, core::TimeNs t_ns);
   void log_mujoco_warnings() const;
+  void check_actuator_stability() const;
 };
 
 void World::Impl::load() {
@@ -164,6 +166,7 @@ void World::Impl::bind_robot(RobotRuntime& robot) const {
   robot.qpos_yaw = m->jnt_qposadr[jyaw];
   robot.dof_x = m->jnt_dofadr[jx];
   robot.dof_y = m->jnt_dofadr[jy];
+  robot.dof_yaw = m->jnt_dofadr[jyaw];
   robot.actuator_vx = require_id(m, mjOBJ_ACTUATOR, prefix + "_vx");
   robot.actuator_vy = require_id(m, mjOBJ_ACTUATOR, prefix + "_vy");
   robot.actuator_wz = require_id(m, mjOBJ_ACTUATOR, prefix + "_wz");
@@ -302,6 +305,40 @@ std::vector<core::SensorFrame> World::Impl::process_events(core::TimeNs t_ns) {
   return frames;
 }
 
+// MuJoCo integrates the velocity actuators' gain explicitly (only joint damping is implicit in 2.2): each
+// step scales a velocity error by 1 - dt kv / M, with M the dof's mass or inertia (the mass matrix's
+// diagonal: body, wheels, camera and armature). Beyond 2 the loop diverges until MuJoCo resets the state
+// (the robot jumps to its start); between 1 and 2 it overshoots every step. A light robot (radius 2 cm)
+// or a long physics step is refused here instead.
+void World::Impl::check_actuator_stability() const {
+  const mjModel* m = model.get();
+  const double dt = core::ns_to_seconds(step_ns);
+  for (const RobotRuntime& robot : robots) {
+    if (robot.config.type != RobotType::kDiffDrive) continue;
+    const std::pair<int, int> loops[] = {{robot.actuator_vx, robot.dof_x}, {robot.actuator_vy, robot.dof_y},
+                                         {robot.actuator_wz, robot.dof_yaw}};
+    for (const auto& [actuator, dof] : loops) {
+      const double kv = m->actuator_gainprm[actuator * mjNGAIN];
+      const double inertia = data->qM[m->dof_Madr[dof]];
+      const double factor = dt * kv / inertia;
+      if (!(factor < 1.0)) {
+        const auto g = [](double x) {
+          char text[32];
+          std::snprintf(text, sizeof text, "%.4g", x);
+          return std::string(text);
+        };
+        const bool yaw = dof == robot.dof_yaw;
+        throw InputError(scenario.scene + ": robot " + robot.config.name,
+                         "physics_step_s " + g(dt) + " s is too long for its " + (yaw ? "yaw inertia " : "mass ") +
+                             g(inertia) + (yaw ? " kg m^2" : " kg") +
+                             ": its velocity control would overshoot or diverge (step x gain / " +
+                             (yaw ? "inertia" : "mass") + " = " + g(factor) + ", at most 1); use physics_step_s below " +
+                             g(inertia / kv) + " s or a larger robot");
+      }
+    }
+  }
+}
+
 void World::Impl::log_mujoco_warnings() const {
   for (const auto& warning : detail::take_mujoco_warnings()) logger->warn("MuJoCo: {}", warning);
 }
@@ -312,13 +349,17 @@ World::World(ScenarioConfig scenario, core::Logger logger) : impl_(std::make_uni
   impl_->load();
   int max_width = 64;
   int max_height = 64;
+  // Sensor ticks fall on the nearest physics instant of the integer step (physics_step_s rounded to ns):
+  // a rate whose period is shorter than that step puts two ticks on one step, and equality never sees the
+  // second.
+  const double step_s = core::ns_to_seconds(impl_->step_ns);
   for (const auto& config : impl_->scenario.robots) {
-    if (config.camera.enabled && config.camera.rate_hz * impl_->scenario.physics_step_s > 1.0) {
+    if (config.camera.enabled && config.camera.rate_hz * step_s > 1.0) {
       throw InputError(impl_->scenario.scene + ": robot " + config.name,
                        "camera rate exceeds the physics rate");
     }
     // Sensors are sampled at physics steps: two IMU ticks in one step would stop the stream for good.
-    if (config.imu.enabled && config.imu.noise.rate_hz * impl_->scenario.physics_step_s > 1.0) {
+    if (config.imu.enabled && config.imu.noise.rate_hz * step_s > 1.0) {
       throw InputError(impl_->scenario.scene + ": robot " + config.name,
                        "IMU rate " + std::to_string(config.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
                            std::to_string(1.0 / impl_->scenario.physics_step_s) + " Hz (physics_step_s)");
@@ -336,6 +377,7 @@ World::World(ScenarioConfig scenario, core::Logger logger) : impl_(std::make_uni
     if (robot.qpos_yaw >= 0) impl_->data->qpos[robot.qpos_yaw] = robot.config.initial_pose.yaw_deg * M_PI / 180.0;
   }
   mj_forward(impl_->model.get(), impl_->data.get());
+  impl_->check_actuator_stability();
   impl_->renderer = std::make_unique<detail::Renderer>(impl_->model.get(), max_width, max_height);
   impl_->logger->info("world: scene {} with {} robot(s), physics step {} ms, duration {} s",
                       impl_->scenario.scene_path().string(), impl_->robots.size(),

@@ -538,6 +538,40 @@ TEST(World, AnImuFasterThanThePhysicsIsRefused) {
   }
   scenario.physics_step_s = 0.005;  // 200 Hz: one sample per step
   EXPECT_NO_THROW(World(scenario, nullptr));
+  // The step the ticks fall on is physics_step_s rounded to nanoseconds: 3333334 ns here, longer than
+  // the IMU's period (3333333.4 ns), though 299.99999 Hz x 0.0033333335 s is below 1.
+  scenario.physics_step_s = 0.0033333335;
+  scenario.robots[0].imu.noise.rate_hz = 299.99999;
+  EXPECT_THROW(World(scenario, nullptr), InputError);
+}
+
+// MuJoCo integrates the velocity actuators explicitly: a long physics step, or a light robot, makes the
+// drive loop diverge (MuJoCo then resets the robot to its start). Such a world is refused, naming the step.
+TEST(World, APhysicsStepTooLongForTheDriveIsRefused) {
+  const fs::path dir = write_scene("drive_step", kWallScene);
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.initial_pose = PoseConfig{0.0, 0.0, 0.0, 0, 0, 0};
+  rover.camera.enabled = false;
+  rover.imu.enabled = false;
+  const auto error_of = [&](const ScenarioConfig& scenario) -> std::string {
+    try {
+      World world(scenario, nullptr);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  ScenarioConfig scenario = scenario_in(dir, {rover});
+  EXPECT_EQ(error_of(scenario), "") << "the default step and robot";
+  scenario.physics_step_s = 0.05;
+  std::string error = error_of(scenario);
+  EXPECT_NE(error.find("physics_step_s 0.05"), std::string::npos) << error;
+  EXPECT_NE(error.find("rover"), std::string::npos) << error;
+  scenario.physics_step_s = 0.001;
+  scenario.robots[0].radius_m = 0.02;  // a 4 cm robot at the default step
+  error = error_of(scenario);
+  EXPECT_NE(error.find("yaw inertia"), std::string::npos) << error;
 }
 
 TEST(World, MissingOrMalformedSceneNamesTheFile) {
