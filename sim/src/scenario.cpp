@@ -129,7 +129,7 @@ void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& fi
     }
     check_waypoints(file, i, robot);
     check_sensors(file, i, robot, scenario.physics_step_s);
-    if (robot.seed < 0) robot.seed = scenario.seed * 1000 + static_cast<std::int64_t>(i) + 1;
+    if (robot.seed < 0) robot.seed = derived_robot_seed(scenario.seed, i);
   }
   // Two robots with one seed draw the same noise: a seed of its own can equal another robot's derived one.
   std::map<std::int64_t, std::size_t> robot_of_seed;

@@ -213,7 +213,7 @@ core::ImuSample World::Impl::imu_sample(RobotRuntime& robot, core::TimeNs t_ns) 
   if (robot.trajectory) {
     // The rig moves kinematically: its IMU reads the trajectory's exact derivatives.
     const auto state = robot.trajectory->evaluate(t_ns);
-    const Eigen::Vector3d gravity_world(0.0, 0.0, -9.81);
+    const Eigen::Vector3d gravity_world = Eigen::Map<const Eigen::Vector3d>(model->opt.gravity);  // as MuJoCo's sensors
     gyro = state.omega_body_radps;
     accel = state.T_world_body.linear().transpose() * (state.a_world_mps2 - gravity_world);
   } else {
@@ -345,6 +345,11 @@ void World::Impl::log_mujoco_warnings() const {
 
 World::World(ScenarioConfig scenario, core::Logger logger) : impl_(std::make_unique<Impl>()) {
   impl_->scenario = std::move(scenario);
+  // Robots without a seed (a config built in code, not validated) would all draw the same noise.
+  for (std::size_t i = 0; i < impl_->scenario.robots.size(); ++i) {
+    RobotConfig& robot = impl_->scenario.robots[i];
+    if (robot.seed < 0) robot.seed = derived_robot_seed(impl_->scenario.seed, i);
+  }
   impl_->logger = logger ? std::move(logger) : core::null_logger();
   impl_->load();
   int max_width = 64;
@@ -502,7 +507,11 @@ RobotTruth World::truth(std::size_t robot) const {
 }
 
 void World::set_path(std::size_t robot, std::vector<Eigen::Vector2d> path_xy) {
-  RobotRuntime& r = impl_->robots.at(robot);
+  if (robot >= impl_->robots.size()) {
+    throw std::invalid_argument("set_path: no robot " + std::to_string(robot) + " (the world has " +
+                                std::to_string(impl_->robots.size()) + ")");
+  }
+  RobotRuntime& r = impl_->robots[robot];
   if (!r.controller) throw std::invalid_argument("set_path: robot '" + r.config.name + "' is not a diff_drive robot");
   r.controller->set_path(std::move(path_xy));
 }

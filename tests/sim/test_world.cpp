@@ -574,6 +574,55 @@ TEST(World, APhysicsStepTooLongForTheDriveIsRefused) {
   EXPECT_NE(error.find("yaw inertia"), std::string::npos) << error;
 }
 
+// A free rig's IMU reads the model's gravity, as a diff-drive robot's (MuJoCo's sensors) does: a scene
+// with other gravity made the two kinds disagree.
+TEST(World, AFreeRigAtRestReadsTheScenesGravity) {
+  const fs::path dir = fs::temp_directory_path() / "fleetslam_test_world_gravity";
+  fs::create_directories(dir);
+  std::ofstream(dir / "scene.xml") << "<mujoco model=\"g\">\n  <option gravity=\"0 0 -5\"/>\n  <asset><material name=\"glow\" "
+                                      "rgba=\"1 0 0 1\" emission=\"1\"/></asset>\n  <worldbody>\n"
+                                   << kWallScene << "  </worldbody>\n</mujoco>\n";
+  RobotConfig rig = still_rig("rig", PoseConfig{0.15, 0.0, 1.25, 0, 0, 0});
+  rig.imu.enabled = true;
+  World world(scenario_in(dir, {rig}, 0.2), nullptr);
+  int samples = 0;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    for (const core::ImuSample& s : frames[0].imu) {
+      EXPECT_NEAR((s.accel_mps2 - Eigen::Vector3d(0, 0, 5.0)).norm(), 0.0, 1e-9);
+      ++samples;
+    }
+  }
+  EXPECT_GT(samples, 10);
+}
+
+// A ScenarioConfig built in code leaves robot seeds at -1: the world derives them as validation does, so
+// two robots do not draw the same noise.
+TEST(World, RobotsWithoutSeedsDrawDifferentNoise) {
+  const fs::path dir = write_scene("seeds", kWallScene);
+  RobotConfig a = still_rig("a", PoseConfig{0.15, 0.0, 1.25, 0, 0, 0});
+  RobotConfig b = still_rig("b", PoseConfig{0.15, 0.5, 1.25, 0, 0, 0});
+  for (RobotConfig* r : {&a, &b}) {
+    r->seed = -1;
+    r->imu.enabled = true;
+    r->imu.noise_enabled = true;
+  }
+  World world(scenario_in(dir, {a, b}, 0.2), nullptr);
+  EXPECT_EQ(world.robot_config(0).seed, 1001);  // scenario seed 1: 1 * 1000 + index + 1
+  EXPECT_EQ(world.robot_config(1).seed, 1002);
+  const auto frames = world.step();
+  ASSERT_EQ(frames.size(), 2u);
+  ASSERT_FALSE(frames[0].imu.empty());
+  ASSERT_EQ(frames[0].imu.size(), frames[1].imu.size());
+  EXPECT_NE(frames[0].imu[0].gyro_radps, frames[1].imu[0].gyro_radps);
+}
+
+TEST(World, SetPathRefusesABadRobotIndex) {
+  const fs::path dir = write_scene("set_path", kWallScene);
+  World world(scenario_in(dir, {still_rig("cam", PoseConfig{})}), nullptr);
+  EXPECT_THROW(world.set_path(99, {}), std::invalid_argument);
+  EXPECT_THROW(world.set_path(0, {}), std::invalid_argument);  // a free rig
+}
+
 TEST(World, MissingOrMalformedSceneNamesTheFile) {
   const fs::path dir = write_scene("bad", kWallScene);
   std::ofstream(dir / "broken.xml") << "<mujoco><worldbody><geom type=\"box\" size=\"1\"";

@@ -174,4 +174,10 @@ ScenarioConfig load_scenario(const std::filesystem::path& file);
 // derives robot seeds, and throws InputError naming file:key.
 void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& file);
 
+// The seed of robot `index` without one of its own (RobotConfig::seed -1): scenario_seed * 1000 + index + 1.
+// validate_scenario sets it; sim::World derives it too, for a ScenarioConfig built in code.
+inline std::int64_t derived_robot_seed(std::int64_t scenario_seed, std::size_t index) {
+  return scenario_seed * 1000 + static_cast<std::int64_t>(index) + 1;
+}
+
 }  // namespace fleetslam::sim
