@@ -4,6 +4,8 @@
 #include <map>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -28,6 +30,75 @@ void check_waypoints(const std::filesystem::path& file, std::size_t index, const
       throw InputError(robot_key(file, index, "waypoints[" + std::to_string(k) + "].t_s"),
                        "waypoint times must increase");
     }
+  }
+}
+
+// The values of a config's fields, in visit order (PoseConfig, WaypointConfig, PurePursuitConfig: numbers).
+struct FieldValues {
+  std::vector<std::pair<std::string, double>> fields;
+  template <class T, class... Limits>
+  void operator()(const char* key, T& value, Limits&&...) {
+    fields.emplace_back(key, static_cast<double>(value));
+  }
+};
+
+template <class Config>
+std::vector<std::pair<std::string, double>> field_values(Config config) {
+  FieldValues values;
+  config.visit(values);
+  return values.fields;
+}
+
+// The first field of `given` that differs from `reference`'s, or "".
+template <class Config>
+std::string first_difference(const Config& given, const Config& reference) {
+  const auto a = field_values(given);
+  const auto b = field_values(reference);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    if (!(a[k].second == b[k].second)) return a[k].first;
+  }
+  return "";
+}
+
+// Settings a robot type does not use are refused, not silently ignored: a diff_drive robot stands on the
+// floor (no roll or pitch) and follows x/y waypoints (no times, heights or angles); a free_rig follows its
+// timed waypoints (no controller) and starts at the first one (initial_pose, when given, must be it).
+void check_unused_settings(const std::filesystem::path& file, std::size_t index, RobotConfig& robot) {
+  if (robot.type == RobotType::kDiffDrive) {
+    if (robot.initial_pose.roll_deg != 0.0 || robot.initial_pose.pitch_deg != 0.0) {
+      throw InputError(robot_key(file, index, robot.initial_pose.roll_deg != 0.0 ? "initial_pose.roll_deg" : "initial_pose.pitch_deg"),
+                       "a diff_drive robot stands on the floor: its initial pose has x, y, z and yaw_deg only");
+    }
+    for (std::size_t k = 0; k < robot.waypoints.size(); ++k) {
+      WaypointConfig plain;
+      plain.x = robot.waypoints[k].x;
+      plain.y = robot.waypoints[k].y;
+      const std::string key = first_difference(robot.waypoints[k], plain);
+      if (!key.empty()) {
+        throw InputError(robot_key(file, index, "waypoints[" + std::to_string(k) + "]." + key),
+                         "a diff_drive robot's waypoints are x and y (t_s, z and angles are a free_rig's)");
+      }
+    }
+    const PurePursuitConfig& c = robot.controller;
+    if (!(c.max_speed_mps > 0.0) || !(c.max_yaw_rate_radps > 0.0)) {
+      throw InputError(robot_key(file, index, c.max_speed_mps > 0.0 ? "controller.max_yaw_rate_radps" : "controller.max_speed_mps"),
+                       "must be positive: the robot could never finish its path");
+    }
+    return;
+  }
+  const std::string controller_key = first_difference(robot.controller, PurePursuitConfig{});
+  if (!controller_key.empty()) {
+    throw InputError(robot_key(file, index, "controller." + controller_key),
+                     "a free_rig follows its timed waypoints: it has no controller");
+  }
+  if (robot.waypoints.empty()) return;  // check_waypoints refuses it
+  const WaypointConfig& w = robot.waypoints.front();
+  const PoseConfig first{w.x, w.y, w.z, w.roll_deg, w.pitch_deg, w.yaw_deg};
+  if (first_difference(robot.initial_pose, PoseConfig{}).empty()) {
+    robot.initial_pose = first;  // not given: where the rig starts
+  } else if (const std::string key = first_difference(robot.initial_pose, first); !key.empty()) {
+    throw InputError(robot_key(file, index, "initial_pose." + key),
+                     "a free_rig starts at its first waypoint: give initial_pose as that pose, or leave it out");
   }
 }
 
@@ -128,6 +199,7 @@ void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& fi
       throw InputError(robot_key(file, i, "name"), "duplicate robot name '" + robot.name + "'");
     }
     check_waypoints(file, i, robot);
+    check_unused_settings(file, i, robot);
     check_sensors(file, i, robot, scenario.physics_step_s);
     if (robot.seed < 0) robot.seed = derived_robot_seed(scenario.seed, i);
   }

@@ -718,6 +718,30 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
   };
   EXPECT_EQ(error_of(with_rig_at("3")), "no error");
   EXPECT_NE(error_of(with_rig_at("0.1")).find("robot 'r' starts overlapping robot 'a'"), std::string::npos);
+  // Settings a robot type does not use are refused, not ignored; a free rig without an initial pose starts
+  // at its first waypoint, and one given must be that pose.
+  const auto error_with = [&](const std::string& robot) { return error_of("scene: scene.xml\nrobots:\n  - " + robot + "\n"); };
+  EXPECT_NE(error_with("{name: a, initial_pose: {pitch_deg: 10}}").find("robots[0].initial_pose.pitch_deg: a diff_drive"),
+            std::string::npos);
+  EXPECT_NE(error_with("{name: a, waypoints: [{x: 1, y: 1}, {x: 2, y: 1, t_s: 4}]}").find("robots[0].waypoints[1].t_s"),
+            std::string::npos);
+  EXPECT_NE(error_with("{name: a, waypoints: [{x: 1, y: 1, yaw_deg: 90}]}").find("robots[0].waypoints[0].yaw_deg"),
+            std::string::npos);
+  EXPECT_NE(error_with("{name: a, controller: {max_speed_mps: 0}}").find("robots[0].controller.max_speed_mps: must be positive"),
+            std::string::npos);
+  EXPECT_NE(error_with("{name: a, controller: {max_yaw_rate_radps: 0}}").find("controller.max_yaw_rate_radps"),
+            std::string::npos);
+  const std::string knots = "waypoints: [{t_s: 0, x: 1, y: 2, z: 1, yaw_deg: 30}, {t_s: 1, x: 2}]";
+  EXPECT_NE(error_with("{name: r, type: free_rig, controller: {max_speed_mps: 1}, " + knots + "}")
+                .find("robots[0].controller.max_speed_mps: a free_rig"),
+            std::string::npos);
+  EXPECT_NE(error_with("{name: r, type: free_rig, initial_pose: {x: 1, y: 2, z: 1}, " + knots + "}")
+                .find("robots[0].initial_pose.yaw_deg: a free_rig starts at its first waypoint"),
+            std::string::npos);
+  EXPECT_EQ(error_with("{name: r, type: free_rig, initial_pose: {x: 1, y: 2, z: 1, yaw_deg: 30}, " + knots + "}"), "no error");
+  const ScenarioConfig rig_only = load_scenario(write("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, " + knots + "}\n"));
+  EXPECT_EQ(rig_only.robots[0].initial_pose.yaw_deg, 30.0);
+  EXPECT_EQ(rig_only.robots[0].initial_pose.z, 1.0);
 }
 
 }  // namespace
