@@ -11,6 +11,8 @@
 int main(int argc, char** argv) {
   CLI::App app{"fleetslam: a multi-robot visual SLAM testbed"};
   app.require_subcommand(1);
+  // -q and -v may also come after the command (subcommands created below pass options they lack up).
+  app.fallthrough();
   fleetslam::tools::GlobalOptions global;
   app.add_flag("-v,--verbose", global.verbose, "More log output");
   app.add_flag("-q,--quiet", global.quiet, "Only warnings and errors");
@@ -26,7 +28,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help exits 0; every usage error (missing, unknown or out-of-range option) is bad input: 2, as the
+    // README promises (CLI11's own codes run from 100 up).
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const fleetslam::tools::CriteriaFailed& e) {
     std::cerr << "fleetslam: " << e.what() << "\n";
     return 1;

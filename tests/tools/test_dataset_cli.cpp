@@ -208,7 +208,7 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
   EXPECT_NE(result.err.find("not empty"), std::string::npos) << result.err;
 
   result = run("dataset info " + quoted(kEuroc) + " --format kitti");
-  EXPECT_NE(result.exit_code, 0);
+  EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("kitti"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("tum_rgbd"), std::string::npos) << result.err;  // the names it takes
   result = run("dataset info " + quoted(kEuroc) + " --groundtruth " + quoted(dir_ / "gt.txt"));

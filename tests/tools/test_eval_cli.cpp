@@ -197,9 +197,18 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(EvalCli, UnknownAlignmentIsAUsageError) {
   const fs::path dir = test_dir();
   std::ofstream(dir / "gt.txt") << kGoodTum;
-  const RunResult r = run_in(dir, "eval --gt gt.txt --est gt.txt --align se2");
-  EXPECT_NE(r.exit_code, 0) << r.output;
+  RunResult r = run_in(dir, "eval --gt gt.txt --est gt.txt --align se2");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--align"), std::string::npos) << r.output;
+  // Every usage error exits 2 (bad input), not CLI11's own codes from 100 up; --help exits 0.
+  for (const char* usage : {"eval --est gt.txt", "eval --gt gt.txt --est gt.txt --rpe-delta abc", "eval --gt gt.txt --est gt.txt --no-such-flag"}) {
+    r = run_in(dir, usage);
+    EXPECT_EQ(r.exit_code, 2) << usage << ": " << r.output;
+  }
+  EXPECT_EQ(run_in(dir, "eval --help").exit_code, 0);
+  // Global flags may follow the command.
+  r = run_in(dir, "eval --gt gt.txt --est gt.txt -q");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
 }  // namespace

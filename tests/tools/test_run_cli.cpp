@@ -205,7 +205,7 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("absent.yaml"), std::string::npos) << r.output;
   r = run("run '" + kOffice.string() + "' --prior-error 0.1 0 0 --out '" + (dir / "run").string() + "'");
-  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.exit_code, 2) << r.output;
   std::ofstream(dir / "agent.yaml") << "tracking:\n  no_such_key: 1\n";
   r = run("run '" + kOffice.string() + "' --agent-config '" + (dir / "agent.yaml").string() + "' --out '" +
           (dir / "run").string() + "'");
