@@ -142,6 +142,9 @@ ConfigReader ConfigReader::from_string(const std::string& text, const std::strin
 }
 
 ConfigReader ConfigReader::from_file(const std::filesystem::path& file) {
+  std::error_code ec;
+  // An ifstream opens a folder and reads nothing: it would be an empty config, all defaults.
+  if (std::filesystem::is_directory(file, ec)) throw InputError(file.string(), "is a folder, not a config file");
   std::ifstream in(file);
   if (!in) throw InputError(file.string(), "cannot open config file");
   std::stringstream text;

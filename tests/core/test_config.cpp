@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -124,6 +125,15 @@ TEST(Config, ErrorsNameFileAndKey) {
     EXPECT_NE(error.find("contains it"), std::string::npos) << error;
   }
   EXPECT_NO_THROW(ConfigReader::from_string("a: &x [1, {c: 2}]\nb: [*x, *x]\nc: {d: *x}\n", "t.yaml"));
+  // A folder given as a config file is not an empty config.
+  const std::filesystem::path folder = std::filesystem::temp_directory_path() / "fleetslam_test_config_folder.yaml";
+  std::filesystem::create_directories(folder);
+  try {
+    ConfigReader::from_file(folder);
+    ADD_FAILURE() << "a folder was read as a config";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), folder.string() + ": is a folder, not a config file");
+  }
   EXPECT_EQ(error_of("required_value: 1\n---\nlevels: 2000\n").rfind("agent.yaml:", 0), 0u);
   EXPECT_NE(error_of("required_value: 1\n---\nlevels: 2000\n").find("2 YAML documents"), std::string::npos);
   EXPECT_EQ(error_of("required_value: 1\nlevels: 010\n"),
