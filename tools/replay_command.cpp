@@ -184,8 +184,10 @@ class RunLog {
 core::Trajectory groundtruth(const ReplayOptions& o, const core::FrameSource& source,
                              const core::Trajectory& per_frame, std::string& used) {
   const std::string& file = source.info().groundtruth_file;
+  // A file of body poses (--groundtruth-body) is compared through the per-frame camera poses the reader
+  // made of it.
   const bool camera_poses =
-      (!o.groundtruth.empty() && !o.groundtruth_body) || source.info().format == core::DatasetFormat::kTumRgbd;
+      !o.groundtruth_body && (!o.groundtruth.empty() || source.info().format == core::DatasetFormat::kTumRgbd);
   if (!file.empty() && camera_poses) {
     used = file;
     core::TrajectoryReadOptions options;
@@ -286,14 +288,10 @@ void remove_earlier_outputs(const fs::path& out, const core::Logger& logger) {
 
 // The sequence's parts as robots: frame k of n goes to robot floor(k * parts / n).
 void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const slam::AgentConfig& config,
-                      core::FrameSource& source, const core::Logger& logger, const fs::path& out) {
+                      const central::ServerConfig& central_config, core::FrameSource& source, const core::Logger& logger,
+                      const fs::path& out) {
   const std::size_t total = source.size();
   const std::size_t parts = static_cast<std::size_t>(o.split);
-  if (total < 2 * parts) {
-    throw InputError(o.dataset, "--split " + std::to_string(parts) + " needs at least " + std::to_string(2 * parts) +
-                                    " frames, the sequence has " + std::to_string(total));
-  }
-  const central::ServerConfig central_config = read_config_file<central::ServerConfig>(o.central_config);
   write_text_file(out / "central_config.yaml", core::config_to_yaml(central_config));
   central::Server server(central_config, logger);
   central::InProcessLink link;
@@ -309,11 +307,13 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
   std::size_t k = 0;
   std::vector<std::int64_t> first_index(parts, -1);
   std::vector<std::int64_t> map_start(parts, -1);  // the frame that started the robot's map
+  std::vector<std::size_t> frames_of(parts, 0);
   while (std::optional<core::SensorFrame> frame = source.next()) {
     const std::size_t r = std::min(parts - 1, k * parts / total);
     if (first_index[r] < 0) first_index[r] = static_cast<std::int64_t>(k);
     frame->robot_id = static_cast<int>(r);
     frame->sequence = static_cast<std::int64_t>(k) - first_index[r];
+    ++frames_of[r];
     if (frame->T_world_cam_gt) groundtruths[r].push_back({frame->t_ns, *frame->T_world_cam_gt});
     slam::AgentUpdate update = agents[r].process(*frame);
     // The robot's frame is its agent's world: cam0 of the frame that started its map, which need not be
@@ -343,7 +343,7 @@ void run_split_replay(const ReplayOptions& o, const GlobalOptions& global, const
     const int id = static_cast<int>(r);
     core::write_trajectory(out / names[r] / "groundtruth.txt", groundtruths[r], core::TrajectoryFormat::kTum);
     const core::Trajectory world = map_start[r] >= 0 ? server.world_trajectory(id) : core::Trajectory{};
-    nlohmann::json entry = {{"name", names[r]}, {"frames", groundtruths[r].size()}, {"tracked", world.size()},
+    nlohmann::json entry = {{"name", names[r]}, {"frames", frames_of[r]}, {"tracked", world.size()},
                             {"first_frame", first_index[r]}, {"map_start_frame", map_start[r]}};
     for (const auto& [mode, key] : {std::pair{core::AlignmentMode::kNone, "ate_world_m"}, std::pair{core::AlignmentMode::kSe3, "ate_se3_m"}}) {
       const core::AteResult ate = core::compute_ate(groundtruths[r], world, core::associate_by_time(groundtruths[r], world), mode);
@@ -380,14 +380,28 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   if (!o.calibration.empty()) settings = core::read_orbslam_settings(o.calibration);
   const slam::AgentConfig config = agent_config(o, settings);
   std::unique_ptr<core::FrameSource> source = open_source(o, settings, logger);
+  // Everything that can refuse the input is checked before the output folder is touched: an earlier
+  // run's results there are removed only for a run that goes ahead.
+  if (source->size() == 0) {
+    throw InputError(o.dataset, "no frames selected (the sequence is empty, or --max-frames is 0)");
+  }
   const fs::path out = o.out;
-  create_output_folder(out);
-  remove_earlier_outputs(out, logger);
-  write_text_file(out / "config.yaml", core::config_to_yaml(config));
   if (o.split > 1) {
     if (!o.save_map.empty() || !o.load_map.empty()) throw InputError("--split", "takes neither --save-map nor --load-map");
-    run_split_replay(o, global, config, *source, logger, out);
+    const std::size_t parts = static_cast<std::size_t>(o.split);
+    if (source->size() < 2 * parts) {
+      throw InputError(o.dataset, "--split " + std::to_string(parts) + " needs at least " + std::to_string(2 * parts) +
+                                      " frames, the sequence has " + std::to_string(source->size()));
+    }
+    const central::ServerConfig central_config = read_config_file<central::ServerConfig>(o.central_config);
+    create_output_folder(out);
+    remove_earlier_outputs(out, logger);
+    write_text_file(out / "config.yaml", core::config_to_yaml(config));
+    run_split_replay(o, global, config, central_config, *source, logger, out);
     return;
+  }
+  if (!o.central_config.empty()) {
+    throw InputError("--central-config", "needs --split: without it no central unit runs");
   }
 
   slam::AgentConfig without_map = config;  // the map is loaded below, timed (reported only)
@@ -399,6 +413,9 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
     agent.load_map(config.load_map);
     load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
   }
+  create_output_folder(out);
+  remove_earlier_outputs(out, logger);
+  write_text_file(out / "config.yaml", core::config_to_yaml(config));
   RunResult run = run_agent(agent, *source, logger);
   // A map that cannot be saved costs the run nothing else: the other outputs are written, then the error
   // is raised.

@@ -178,6 +178,50 @@ TEST(ReplayCli, SplitPlacesAPartFromTheFrameThatStartsItsMap) {
       << prior.dump();
 }
 
+// Input that replay refuses leaves an earlier run's results in --out alone: every check comes before the
+// folder is touched. They were removed first, then the options refused.
+TEST(ReplayCli, RefusedOptionsLeaveTheEarlierResults) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  const fs::path out = dir / "earlier";
+  fs::create_directories(out);
+  std::ofstream(out / "metrics.json") << "{\"earlier\": true}\n";
+  const std::string tum = "-q replay '" + kTum.string() + "' --out '" + out.string() + "'";
+  const std::pair<std::string, std::string> refused[] = {
+      {" --split 2 --save-map '" + (dir / "m.fsmap").string() + "'", "--split"},
+      {" --split 2 --central-config '" + (dir / "absent.yaml").string() + "'", "absent.yaml"},
+      {" --split 2 --max-frames 3", "needs at least 4 frames"},
+      {" --load-map '" + (dir / "absent.fsmap").string() + "'", "absent.fsmap"},
+      {" --central-config '" + (dir / "absent.yaml").string() + "'", "--central-config: needs --split"},
+      {" --max-frames 0", "no frames selected"}};
+  for (const auto& [options, why] : refused) {
+    const RunResult r = run(tum + options);
+    EXPECT_EQ(r.exit_code, 2) << options << ": " << r.output;
+    EXPECT_NE(r.output.find(why), std::string::npos) << options << ": " << r.output;
+    EXPECT_EQ(read_text(out / "metrics.json"), "{\"earlier\": true}\n") << options;
+    EXPECT_FALSE(fs::exists(out / "config.yaml")) << options;
+  }
+}
+
+// TUM RGB-D ground truth given as body poses (--groundtruth-body) is compared through the per-frame
+// camera poses made of it, not read raw as camera poses.
+TEST(ReplayCli, BodyPoseGroundTruthOfATumSequenceIsNotReadAsCameraPoses) {
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
+  const fs::path dir = test_dir();
+  const fs::path out = dir / "run";
+  // The calibration with a body-to-camera transform (identity) for the body poses.
+  std::ofstream(dir / "calibration.yaml")
+      << read_text(kData / "calib" / "TUM1.yaml")
+      << "\nTbc: !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: f\n  data: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"
+      << "IMU.NoiseGyro: 1.7e-04\nIMU.NoiseAcc: 2.0e-03\nIMU.GyroWalk: 1.9393e-05\nIMU.AccWalk: 3.e-03\nIMU.Frequency: 200.0\n";
+  const RunResult r = run("-q replay '" + kTum.string() + "' --calibration '" + (dir / "calibration.yaml").string() +
+                          "' --max-frames 10 --groundtruth '" + (kTum / "groundtruth.txt").string() +
+                          "' --groundtruth-body --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
+  EXPECT_EQ(metrics["ate"]["groundtruth"], "per-frame ground truth of the dataset reader") << metrics["ate"].dump();
+}
+
 TEST(ReplayCli, SplitNeedsEnoughFrames) {
   if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
   const fs::path dir = test_dir();
