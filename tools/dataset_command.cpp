@@ -190,6 +190,11 @@ void run_convert(const DatasetOptions& options, const GlobalOptions& global) {
     throw InputError(options.path, "cannot convert " + core::to_string(source->info().format) +
                                        " to tum_rgbd: the sequence has no depth images (TUM RGB-D needs RGB-D frames)");
   }
+  // Nothing selected: refused before the writer lays out an empty sequence in --out.
+  if (source->size() == 0) {
+    throw InputError(options.path, "no frame to convert from index " + std::to_string(options.start) + " on (the sequence has " +
+                                       std::to_string(source->info().listed_frames) + " listed frames)");
+  }
   const auto sink = core::make_dataset_writer(options.out, to, source->rig(), logger);
   const std::size_t written = core::copy_frames(*source, *sink, logger);
   if (written == 0) {

@@ -221,6 +221,7 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
   result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "beyond") + " --start 100000");
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("no frame to convert from index 100000 on"), std::string::npos) << result.err;
+  EXPECT_FALSE(fs::exists(dir_ / "beyond")) << "nothing selected: no empty sequence laid out";
 }
 
 }  // namespace
