@@ -216,6 +216,9 @@ void run_eval(const EvalOptions& o, const GlobalOptions& global) {
   const TrajectoryFile gt = read_input(o.gt_path, s.gt_read);
   const TrajectoryFile est = read_input(o.est_path, s.est_read);
   const bool indexed = by_index(o, gt, est);
+  if (indexed && s.rpe.unit == RpeUnit::kSeconds) {
+    throw InputError("--rpe-unit", "s needs time stamps, and these poses pair by index (KITTI has none): use frames or m");
+  }
   // Pairing by index takes the first min(n, m) poses of each: with counts that differ, say so (a partial run
   // pairs correctly only when both files start at the same frame).
   if (indexed && gt.trajectory.size() != est.trajectory.size()) {
@@ -228,6 +231,10 @@ void run_eval(const EvalOptions& o, const GlobalOptions& global) {
   const AteResult ate = compute_ate(gt.trajectory, est.trajectory, pairs, s.align);
   check_ate(ate, o, indexed);
   const RpeResult rpe = compute_rpe(gt.trajectory, est.trajectory, pairs, s.rpe, ate.alignment.scale);
+  if (rpe.translation_errors_m.empty()) {
+    std::cerr << "fleetslam: warning: no two paired poses are " << o.rpe_delta << " " << o.rpe_unit
+              << " apart (--rpe-delta, --rpe-unit): no RPE\n";
+  }
   if (!global.quiet) print_report(o, gt, est, indexed, ate, rpe);
 
   const fs::path out_dir = o.out_dir;

@@ -135,6 +135,14 @@ TEST(EvalCli, KittiPairsByIndexAndOffsetShiftsTheEstimate) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("gt.kitti has 100 poses, short.kitti 40; only the first 40 of each are paired"), std::string::npos)
       << r.output;
+  // Poses without time have no RPE per second (it was NaN over no pairs, exit 0); a step longer than the
+  // trajectory says there is no RPE.
+  r = run_in(dir, "eval --gt gt.kitti --est est.kitti --rpe-unit s --out k");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--rpe-unit: s needs time stamps"), std::string::npos) << r.output;
+  r = run_in(dir, "eval --gt gt.kitti --est est.kitti --rpe-delta 500 --out k");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no two paired poses are 500 frames apart"), std::string::npos) << r.output;
   // An estimate stamped 1 s late pairs only with --offset -1.
   Trajectory late = gt;
   for (auto& p : late) p.t_ns += 1'000'000'000;
