@@ -206,6 +206,10 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
   EXPECT_NE(r.output.find("absent.yaml"), std::string::npos) << r.output;
   r = run("run '" + kOffice.string() + "' --prior-error 0.1 0 0 --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = run("run '" + kOffice.string() + "' --prior-error nan 0 0 0 --out '" + (dir / "nan_prior").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--prior-error: values must be finite"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "nan_prior")) << "refused before the output folder is made";
   std::ofstream(dir / "agent.yaml") << "tracking:\n  no_such_key: 1\n";
   r = run("run '" + kOffice.string() + "' --agent-config '" + (dir / "agent.yaml").string() + "' --out '" +
           (dir / "run").string() + "'");

@@ -249,6 +249,9 @@ Runner::Runner(RunScenarioConfig config, RunnerOptions options, core::Logger log
   if (!options_.prior_error.empty() && options_.prior_error.size() != 4) {
     throw InputError("--prior-error", "needs 4 values: dx dy dz (m) yaw (deg)");
   }
+  for (const double v : options_.prior_error) {
+    if (!std::isfinite(v)) throw InputError("--prior-error", "values must be finite numbers");
+  }
   create_output_folder(options_.out);
 }
 
