@@ -174,19 +174,28 @@ void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, 
     before[id] = kf.T_world_cam;
     if (kf.root) fixed.insert(id);
   }
-  // 1. The keyframe and its covisible neighbours move rigidly with it, their points too.
+  // 1. The keyframe and its covisible neighbours move rigidly with it, their points too. The component's
+  // root does not (the world is its camera; the pose graph and global BA then hold it fixed): a current
+  // keyframe that sees the start again is covisible with it, and moving it shifted the whole world by the
+  // correction. Nor do the points it observes, which are the old side's.
   const Eigen::Isometry3d correction = event.correction;
   std::set<KeyframeId> group{current_id};
   for (const auto& entry : map.keyframe(current_id)->connections) {
-    if (before.count(entry.first) > 0) group.insert(entry.first);
+    if (before.count(entry.first) > 0 && fixed.count(entry.first) == 0) group.insert(entry.first);
   }
+  const auto seen_by_fixed = [&](const MapPoint& point) {
+    return std::any_of(point.observations.begin(), point.observations.end(),
+                       [&](const auto& observation) { return fixed.count(observation.first) > 0; });
+  };
   std::map<KeyframeId, std::set<KeyframeId>> old_connections;
   std::map<MapPointId, KeyframeId> moved_points;  // moved with this group keyframe: it anchors them below
   for (KeyframeId id : group) {
     Keyframe& kf = *map.keyframe(id);
     for (const auto& entry : kf.connections) old_connections[id].insert(entry.first);
     for (MapPointId p : kf.frame.map_points) {
-      if (p == kNoMapPoint || map.point(p) == nullptr || !moved_points.emplace(p, id).second) continue;
+      if (p == kNoMapPoint || map.point(p) == nullptr || seen_by_fixed(*map.point(p)) || !moved_points.emplace(p, id).second) {
+        continue;
+      }
       map.point(p)->position = correction * map.point(p)->position;
     }
     kf.T_world_cam = correction * kf.T_world_cam;

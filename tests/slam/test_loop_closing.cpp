@@ -123,6 +123,14 @@ TEST(LoopClosing, SyntheticLoopIsClosedAndHalvesTheAte) {
   EXPECT_GE(closed.loops.front().inliers, 40);
   EXPECT_LT(ate_closed, 0.5 * ate_open);
   EXPECT_EQ(closed.tracked, static_cast<int>(loop_sequence().size()));
+  // The map's root stays where it was made: the world is cam0 of the first frame.
+  int roots = 0;
+  for (const auto& [id, kf] : closed.map.keyframes()) {
+    if (!kf.root) continue;
+    ++roots;
+    EXPECT_LT((kf.T_world_cam.matrix() - Eigen::Matrix4d::Identity()).norm(), 1e-9) << kf.T_world_cam.matrix();
+  }
+  EXPECT_EQ(roots, 1);
   // The loop's keyframes keep their loop edge (for later loops' essential graphs) and were not culled.
   for (const LoopEvent& e : closed.loops) {
     const Keyframe* current = closed.map.keyframe(e.current);
