@@ -2,6 +2,9 @@
 
 #include "fleetslam/slam/agent.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <mutex>
 
 #include <spdlog/logger.h>
@@ -110,6 +113,25 @@ void Agent::save_map(const std::filesystem::path& file) {
 void Agent::load_map(const std::filesystem::path& file) {
   Impl& s = *impl_;
   SavedMap saved = slam::load_map(file);
+  // Bundle adjustment projects every keyframe of a window with one camera: a map made with other
+  // intrinsics (or another baseline) would have its keyframes' observations rejected as outliers and
+  // erode without a word.
+  const core::PinholeCamera& camera = s.builder.camera();
+  for (const auto& [id, kf] : saved.map.keyframes()) {
+    const core::PinholeCamera& c = kf.frame.camera;
+    const auto differs = [](double a, double b) { return !(std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b))); };
+    if (c.width() != camera.width() || c.height() != camera.height() || differs(c.fx(), camera.fx()) ||
+        differs(c.fy(), camera.fy()) || differs(c.cx(), camera.cx()) || differs(c.cy(), camera.cy()) ||
+        differs(kf.frame.bf, s.builder.bf())) {
+      char text[256];
+      std::snprintf(text, sizeof text,
+                    "keyframe %lld was made with another camera (%dx%d, fx %.3f fy %.3f cx %.3f cy %.3f, bf %.3f) than "
+                    "this agent's (%dx%d, fx %.3f fy %.3f cx %.3f cy %.3f, bf %.3f)",
+                    static_cast<long long>(id), c.width(), c.height(), c.fx(), c.fy(), c.cx(), c.cy(), kf.frame.bf,
+                    camera.width(), camera.height(), camera.fx(), camera.fy(), camera.cx(), camera.cy(), s.builder.bf());
+      throw InputError(file.string(), text);
+    }
+  }
   const std::lock_guard<std::mutex> lock(s.map_mutex);
   FLEETSLAM_CHECK(!s.last_t_ns && s.map.keyframe_count() == 0, "Agent::load_map: only before the first frame");
   s.map = std::move(saved.map);

@@ -280,6 +280,30 @@ TEST(MapIo, LoadingWithAnotherVocabularyRecomputesBow) {
   EXPECT_EQ(agent.map_stats().keyframes, run.map.keyframe_count());
 }
 
+// A map made with another camera is refused, naming the file: bundle adjustment projects a window's
+// keyframes with the agent's camera, and the map's observations would have been rejected as outliers.
+TEST(MapIo, AMapOfAnotherCameraIsRefused) {
+  const fs::path file = test_dir() / "map.fsmap";
+  write_bytes(file, first_run().bytes);
+  core::SensorRig other = test::synthetic_rgbd_rig();
+  other.cam0 = core::PinholeCamera(other.cam0.width(), other.cam0.height(), other.cam0.fx() * 1.03, other.cam0.fy() * 1.03,
+                                   other.cam0.cx(), other.cam0.cy());
+  Agent agent(AgentConfig{}, other, core::null_logger());
+  try {
+    agent.load_map(file);
+    FAIL() << "loaded";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(file.string() + ": keyframe", 0), 0u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("another camera"), std::string::npos) << e.what();
+  }
+  core::SensorRig wider = test::synthetic_rgbd_rig();
+  wider.bf = 45.0;  // another baseline
+  Agent baseline(AgentConfig{}, wider, core::null_logger());
+  EXPECT_THROW(baseline.load_map(file), InputError);
+  Agent same(AgentConfig{}, test::synthetic_rgbd_rig(), core::null_logger());
+  EXPECT_NO_THROW(same.load_map(file));
+}
+
 // A localisation-only agent with `config` (localization_only set here) in the first run's saved map.
 Agent localising_in_first_map(AgentConfig config) {
   const fs::path file = test_dir() / "map.fsmap";
