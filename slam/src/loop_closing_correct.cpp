@@ -124,7 +124,7 @@ std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<
                                                  const std::map<KeyframeId, Eigen::Isometry3d>& corrected,
                                                  const std::set<KeyframeId>& group,
                                                  const std::map<KeyframeId, std::set<KeyframeId>>& old_connections,
-                                                 int strong_covisibility) {
+                                                 int strong_covisibility, std::pair<KeyframeId, KeyframeId> loop_pair) {
   std::vector<PoseGraphEdge> edges;
   std::set<std::pair<KeyframeId, KeyframeId>> linked;  // (smaller id, larger id) of every edge so far
   const auto add = [&](KeyframeId i, KeyframeId j, const Eigen::Isometry3d& T_i_j) {
@@ -154,8 +154,9 @@ std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<
       if (other <= id || before.count(other) == 0) continue;
       const bool in_group = group.count(id) > 0 || group.count(other) > 0;
       const bool was_linked = !in_group || (group.count(id) > 0 ? was_connected(id, other) : was_connected(other, id));
+      const bool is_loop_pair = std::minmax(id, other) == std::minmax(loop_pair.first, loop_pair.second);
       if (!was_linked) {
-        add(id, other, corrected.at(id).inverse() * corrected.at(other));
+        if (weight >= strong_covisibility || is_loop_pair) add(id, other, corrected.at(id).inverse() * corrected.at(other));
       } else if (weight >= strong_covisibility) {
         add(id, other, old_relative(id, other));
       }
@@ -216,7 +217,7 @@ void LoopCloser::correct(KeyframeId current_id, const Verified& loop, Map& map, 
   std::map<KeyframeId, Eigen::Isometry3d> poses;
   for (const auto& [id, T] : before) poses[id] = map.keyframe(id)->T_world_cam;
   const std::vector<PoseGraphEdge> edges =
-      essential_graph_edges(map, before, poses, group, old_connections, config_.strong_covisibility);
+      essential_graph_edges(map, before, poses, group, old_connections, config_.strong_covisibility, {current_id, loop.loop});
   std::map<KeyframeId, Eigen::Isometry3d> optimized = poses;
   map.add_loop_edge(current_id, loop.loop);  // the later graphs' constraint (after this one's edges)
   if (fixed.empty()) fixed.insert(loop.loop);

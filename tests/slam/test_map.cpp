@@ -488,7 +488,10 @@ TEST(EssentialGraph, EachPairOfKeyframesIsOneEdge) {
   std::map<KeyframeId, Eigen::Isometry3d> corrected = before;
   corrected[ids[2]] = at_x(0.25);
   const KeyframeId other = parent2 == ids[0] ? ids[1] : ids[0];
+  // A weak new link is no edge unless it joins the current and the loop keyframe (ORB-SLAM's rule).
   edges = essential_graph_edges(map, before, corrected, {ids[2]}, {{ids[2], {parent2}}}, 1000);
+  EXPECT_EQ(edges.size(), 2u);
+  edges = essential_graph_edges(map, before, corrected, {ids[2]}, {{ids[2], {parent2}}}, 1000, {ids[2], other});
   ASSERT_EQ(edges.size(), 3u);
   int loop_links = 0;
   for (const PoseGraphEdge& e : edges) {

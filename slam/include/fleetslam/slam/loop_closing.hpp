@@ -28,6 +28,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -225,11 +226,14 @@ bool optimize_pose_graph(std::map<KeyframeId, Eigen::Isometry3d>& T_world_cam, c
 // `corrected`: after the loop group moved rigidly), each pair of keyframes at most once: spanning-tree
 // edges (parent, child), earlier loops' edges (Keyframe::loop_edges) and covisibility links of weight >=
 // strong_covisibility at their uncorrected relative poses, and loop links (links of a `group` keyframe that it did not have in `old_connections`)
-// at their corrected ones. A tree edge that is also a strong link counts once, as in ORB-SLAM.
+// at their corrected ones: those of weight >= strong_covisibility, and the link of `loop_pair` (the current
+// and the loop keyframe) whatever its weight, as in ORB-SLAM (a link of a few fused points would weigh as
+// much as a strong one). A tree edge that is also a strong link counts once, as in ORB-SLAM.
 std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<KeyframeId, Eigen::Isometry3d>& before,
                                                  const std::map<KeyframeId, Eigen::Isometry3d>& corrected,
                                                  const std::set<KeyframeId>& group,
                                                  const std::map<KeyframeId, std::set<KeyframeId>>& old_connections,
-                                                 int strong_covisibility);
+                                                 int strong_covisibility,
+                                                 std::pair<KeyframeId, KeyframeId> loop_pair = {-1, -1});
 
 }  // namespace fleetslam::slam
