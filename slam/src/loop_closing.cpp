@@ -106,7 +106,10 @@ std::vector<LoopCloser::Candidate> LoopCloser::detect(const Keyframe& current, c
     const Keyframe* n = map.keyframe(id);
     if (n != nullptr && !n->bow.empty()) query.min_score = std::min(query.min_score, bow_score(current.bow, n->bow));
   }
-  if (current.connections.empty()) return accepted;
+  if (current.connections.empty()) {  // nothing to compare with: consistency does not carry over this keyframe
+    groups_.clear();
+    return accepted;
+  }
   std::map<KeyframeId, double> scores;
   for (const PlaceCandidate& c : database.query(current.bow, query)) {
     const Keyframe* kf = map.keyframe(c.id);

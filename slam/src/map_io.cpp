@@ -680,13 +680,29 @@ SavedMap map_from_bytes(const std::string& bytes, const std::string& where) {
   }
 }
 
+// Written beside the file, then renamed over it: a full disk or a crash mid-write leaves an earlier map
+// at `file` whole.
 void save_map(const Map& map, const fs::path& file, std::uint64_t fingerprint) {
   const std::string data = map_to_bytes(map, fingerprint);
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  if (!out) throw InputError(file.string(), "cannot open the map file for writing");
-  out.write(data.data(), static_cast<std::streamsize>(data.size()));
-  out.close();
-  if (!out) throw InputError(file.string(), "cannot write the map file");
+  fs::path partial = file;
+  partial += ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(file.string(), "cannot open the map file for writing (" + partial.string() + ")");
+    out.write(data.data(), static_cast<std::streamsize>(data.size()));
+    out.close();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(partial, ec);
+      throw InputError(file.string(), "cannot write the map file");
+    }
+  }
+  std::error_code ec;
+  fs::rename(partial, file, ec);
+  if (ec) {
+    fs::remove(partial, ec);
+    throw InputError(file.string(), "cannot replace the map file: " + ec.message());
+  }
 }
 
 SavedMap load_map(const fs::path& file) {

@@ -381,6 +381,26 @@ TEST(MapIo, APyramidThatItsScaleFactorDoesNotMakeIsRefused) {
   }
 }
 
+// A map is written beside the file and renamed over it: a save that fails leaves the earlier map whole
+// (the file was truncated first), and a save that works leaves no partial file.
+TEST(MapIo, AFailedSaveLeavesTheEarlierMap) {
+  const fs::path dir = test_dir();
+  const fs::path file = dir / "kept.fsmap";
+  save_map(first_run().map, file, 0);
+  EXPECT_FALSE(fs::exists(dir / "kept.fsmap.partial"));
+  const auto size = fs::file_size(file);
+  // The partial file cannot be made (a folder of that name): the save fails, the map stays.
+  fs::create_directories(dir / "kept.fsmap.partial" / "x");
+  EXPECT_THROW(save_map(Map{}, file, 0), InputError);
+  EXPECT_EQ(fs::file_size(file), size);
+  EXPECT_NO_THROW(load_map(file));
+  // Over a folder: refused, the folder untouched.
+  fs::create_directories(dir / "folder.fsmap" / "y");
+  EXPECT_THROW(save_map(first_run().map, dir / "folder.fsmap", 0), InputError);
+  EXPECT_TRUE(fs::exists(dir / "folder.fsmap" / "y"));
+  EXPECT_FALSE(fs::exists(dir / "folder.fsmap.partial"));
+}
+
 TEST(MapIo, TruncatedFilesAreInputErrorsNamingTheFile) {
   const std::string& bytes = first_run().bytes;
   const fs::path file = test_dir() / "truncated.fsmap";
