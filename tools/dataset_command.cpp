@@ -235,7 +235,15 @@ void add_dataset_command(CLI::App& app, const GlobalOptions& global) {
   CLI::App* convert = dataset->add_subcommand(
       "convert", "Rewrite a sequence: tum_rgbd -> tum_rgbd|euroc (euroc drops depth), euroc/tumvi -> euroc");
   add_source_options(*convert, *options);
-  convert->add_option("--to", options->to, "Output layout")->required()->check(CLI::IsMember({"tum_rgbd", "euroc"}));
+  convert->add_option("--to", options->to, "Output layout")
+      ->required()
+      ->transform(CLI::Validator(
+          [](std::string& to) -> std::string {
+            if (to == "tum") to = "tum_rgbd";  // the alias --format takes
+            if (to == "tum_rgbd" || to == "euroc") return {};
+            return "'" + to + "' is no layout to write: tum_rgbd (or tum) or euroc";
+          },
+          "{tum_rgbd,tum,euroc}"));
   convert->add_option("--out", options->out, "Output folder (new or empty)")->required();
   convert->add_option("--start", options->start, "First frame index")->check(CLI::NonNegativeNumber);
   convert->add_option("--stop", options->stop, "One past the last frame index (-1: to the end)");

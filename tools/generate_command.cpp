@@ -247,7 +247,13 @@ void add_generate_command(CLI::App& app, const GlobalOptions& global) {
   generate->add_option("scenario", options->scenario, "Scenario YAML file")->required();
   generate->add_option("--format", options->format, "Layout: tum (RGB-D, needs depth) or euroc (gray, IMU, stereo)")
       ->required()
-      ->check(CLI::IsMember({"tum", "euroc"}));
+      ->transform(CLI::Validator(
+          [](std::string& format) -> std::string {
+            if (format == "tum_rgbd") format = "tum";  // the name --format takes elsewhere
+            if (format == "tum" || format == "euroc") return {};
+            return "'" + format + "' is no layout to write: tum (or tum_rgbd) or euroc";
+          },
+          "{tum,tum_rgbd,euroc}"));
   generate->add_option("--out", options->out, "Output folder (new or empty)")->required();
   generate->add_option("--duration", options->duration_s, "Seconds to simulate (default: the scenario's)");
   generate->add_option("--robots", options->robots, "Robots to write, comma-separated (default: all with a camera)")

@@ -127,9 +127,11 @@ TEST_F(DatasetCli, CalibrationFromAnOrbSlamSettingsFile) {
 TEST_F(DatasetCli, ConvertTumToTumKeepsFramesBitExact) {
   SKIP_WITHOUT(kTum);
   const fs::path out = dir_ / "tum";
-  const Result result = run("dataset convert " + quoted(kTum) + " --to tum_rgbd --out " + quoted(out) + " --stop 10");
+  // "tum" is the alias of tum_rgbd here too, as for --format.
+  const Result result = run("dataset convert " + quoted(kTum) + " --to tum --out " + quoted(out) + " --stop 10");
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  EXPECT_NE(result.out.find("wrote 10 frames"), std::string::npos);
+  EXPECT_NE(result.out.find("wrote 10 frames"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("(tum_rgbd)"), std::string::npos) << result.out;
   const nlohmann::json j = info_json(quoted(out));
   EXPECT_EQ(j["frames"], 10);
   EXPECT_EQ(j["frames_with_groundtruth"], 10);
