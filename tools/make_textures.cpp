@@ -1242,14 +1242,23 @@ int main(int argc, char** argv) {
     } else if (arg == "-h" || arg == "--help") {
       std::printf("usage: fleetslam_make_textures [output_dir (default scenes/textures)] [--list] [--only=SUBSTRING]\n");
       return 0;
+    } else if (arg.rfind("-", 0) == 0) {
+      std::fprintf(stderr, "fleetslam_make_textures: unknown option %s (see --help)\n", arg.c_str());
+      return 2;
     } else {
       out_dir = arg;
     }
   }
+  const std::vector<Texture> textures = all_textures();
+  if (!only.empty() && std::none_of(textures.begin(), textures.end(),
+                                    [&](const Texture& t) { return t.name.find(only) != std::string::npos; })) {
+    std::fprintf(stderr, "fleetslam_make_textures: no texture name contains '%s' (see --list)\n", only.c_str());
+    return 2;
+  }
   try {
     if (!list_only) std::filesystem::create_directories(out_dir);
     std::uintmax_t total = 0;
-    for (const Texture& texture : all_textures()) {
+    for (const Texture& texture : textures) {
       if (!only.empty() && texture.name.find(only) == std::string::npos) continue;
       Rng rng(hash_name(texture.name));
       const cv::Mat img = texture.make(rng);

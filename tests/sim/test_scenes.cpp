@@ -4,6 +4,7 @@
 // committed textures are what the generator writes.
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
+#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
@@ -377,6 +378,11 @@ TEST(SceneTextures, GeneratorReproducesTheCommittedFiles) {
     ASSERT_EQ(made.type(), committed.type()) << name;
     EXPECT_EQ(cv::norm(made, committed, cv::NORM_INF), 0.0) << name << " differs from the committed file";
   }
+  // An unknown option is no output folder, and a filter that matches nothing is an error (exit 2).
+  const std::string tool = std::string("\"") + FLEETSLAM_MAKE_TEXTURES + "\"";
+  EXPECT_EQ(WEXITSTATUS(std::system((tool + " \"" + out.string() + "\" --verbose 2> /dev/null").c_str())), 2);
+  EXPECT_EQ(WEXITSTATUS(std::system((tool + " \"" + out.string() + "\" --only=no_such_texture 2> /dev/null").c_str())), 2);
+  EXPECT_FALSE(fs::exists(fs::path("--verbose")));
   fs::remove_all(out);
 #endif
 }
