@@ -235,12 +235,12 @@ void run_eval(const EvalOptions& o, const GlobalOptions& global) {
     std::cerr << "fleetslam: warning: no two paired poses are " << o.rpe_delta << " " << o.rpe_unit
               << " apart (--rpe-delta, --rpe-unit): no RPE\n";
   }
-  if (!global.quiet) print_report(o, gt, est, indexed, ate, rpe);
-
+  // The output folder first: a refused one ends with its one line, not after the whole report.
   const fs::path out_dir = o.out_dir;
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw InputError(o.out_dir, "cannot create the output folder: " + ec.message());
+  if (!global.quiet) print_report(o, gt, est, indexed, ate, rpe);
   write_json(out_dir / "metrics.json", metrics_json(o, s.association, gt, est, indexed, ate, rpe));
   const Trajectory aligned = apply_alignment(ate.alignment, est.trajectory);
   write_trajectory(out_dir / "estimate_aligned.txt", aligned, TrajectoryFormat::kTum);

@@ -202,6 +202,17 @@ INSTANTIATE_TEST_SUITE_P(
                       BadRun{"fractional_exponent", kGoodTum, kGoodTum, "--max-diff 2e-2.5", "--max-diff"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
+// An output folder that cannot be made ends with its one line, before the report is printed.
+TEST(EvalCli, AnOutputFolderThatIsAFileIsOneLine) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "gt.txt") << kGoodTum;
+  std::ofstream(dir / "taken") << "a file\n";
+  const RunResult r = run_in(dir, "eval --gt gt.txt --est gt.txt --out taken");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(lines_of(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("taken: cannot create the output folder"), std::string::npos) << r.output;
+}
+
 TEST(EvalCli, UnknownAlignmentIsAUsageError) {
   const fs::path dir = test_dir();
   std::ofstream(dir / "gt.txt") << kGoodTum;
