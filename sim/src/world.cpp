@@ -400,6 +400,12 @@ std::vector<core::SensorFrame> World::step() {
     mj_step(w.model.get(), w.data.get());
     w.time_ns += w.step_ns;
   }
+  // The end: mj_step left the kinematics (poses, contacts) of the step before; truth() reads the state at
+  // end_ns, as after any step that returned frames.
+  if (w.prepared_ns != w.time_ns) {
+    w.prepare(w.time_ns);
+    mj_forward(w.model.get(), w.data.get());
+  }
   return {};
 }
 

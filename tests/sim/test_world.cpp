@@ -616,6 +616,33 @@ TEST(World, RobotsWithoutSeedsDrawDifferentNoise) {
   EXPECT_NE(frames[0].imu[0].gyro_radps, frames[1].imu[0].gyro_radps);
 }
 
+// At the end of the run truth() is the state at end_ns, as at any frame: a world that ends at 0.5 s and one
+// that goes on, seen at its frame at 0.5 s, agree. mj_step had left the kinematics of the step before
+// (0.4 mm behind for a robot at 0.4 m/s).
+TEST(World, TruthAtTheEndIsTheStateAtTheEnd) {
+  const fs::path dir = write_scene("truth_end", kWallScene);
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.initial_pose = PoseConfig{0.0, 0.0, 0.0, 0, 0, 0};
+  rover.camera.width = 64;
+  rover.camera.height = 48;
+  rover.imu.enabled = false;
+  WaypointConfig ahead;
+  ahead.x = 1.5;
+  rover.waypoints = {ahead};
+  World ending(scenario_in(dir, {rover}, 0.5), nullptr);
+  while (!ending.step().empty()) {
+  }
+  ASSERT_EQ(ending.time_ns(), 500'000'000);
+  World going_on(scenario_in(dir, {rover}, 1.0), nullptr);
+  while (going_on.time_ns() < 500'000'000) ASSERT_FALSE(going_on.step().empty());
+  ASSERT_EQ(going_on.time_ns(), 500'000'000);
+  const RobotTruth a = ending.truth(0);
+  const RobotTruth b = going_on.truth(0);
+  EXPECT_GT(b.T_world_body.translation().x(), 0.05) << "the robot must move for this test";
+  EXPECT_LT((a.T_world_body.translation() - b.T_world_body.translation()).norm(), 1e-12);
+}
+
 TEST(World, SetPathRefusesABadRobotIndex) {
   const fs::path dir = write_scene("set_path", kWallScene);
   World world(scenario_in(dir, {still_rig("cam", PoseConfig{})}), nullptr);
