@@ -521,8 +521,8 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
                 "Skip a frame whose image is missing (dropped while the lists are read: skipped_rows in "
                 "metrics.json) or cannot be decoded (unreadable_frames_skipped) instead of stopping there");
   cmd->add_option("--split", options->split,
-                  "Run the sequence's N consecutive parts as N robots (first ground-truth pose of each part as its "
-                  "prior) and merge their maps in the central unit")
+                  "Run the sequence's N consecutive parts as N robots (the ground-truth pose of the frame that starts "
+                  "each part's map as its prior) and merge their maps in the central unit")
       ->check(CLI::Range(1, 26));
   cmd->add_option("--central-config", options->central_config, "Central unit config YAML (with --split)");
   cmd->add_option("--vocabulary", options->vocabulary,

@@ -285,7 +285,7 @@ std::string keyframes_section(const KeyframesResult& r) {
 
 std::string sampling_section(const SamplingResult& r) {
   std::string s = "## Table 3: uniform sampling of the merged map\n\n"
-                  "Multi-robot runs through the central unit (each robot's first ground-truth pose its prior): a "
+                  "Multi-robot runs through the central unit (each robot's prior: the ground-truth pose of the frame that starts its map): a "
                   "real sequence split into " + std::to_string(r.config.split) + " consecutive parts "
                   "(`replay --split`), a scenario's robots each on its own rendered sequence.\n\n### The paper\n\n";
   Table paper;

@@ -3,7 +3,7 @@
 // every keyframe, frame, map point, the covisibility graph and spanning tree as they are, BoW vectors,
 // culled-keyframe records, replaced points, id counters), so that a later run localises in it.
 //
-// Format, version 1, little-endian fixed-width fields throughout (doubles as IEEE 754 bits):
+// Format, version 2, little-endian fixed-width fields throughout (doubles as IEEE 754 bits):
 //   header   8 bytes magic "FSMAP\0\0\1", u32 format version, u32 section count (5), u64 payload bytes
 //   payload  sections in this order, each u32 tag ("META", "KFRM", "MPTS", "CULL", "REPL"), u32 0,
 //            u64 size, then `size` bytes:
@@ -12,7 +12,8 @@
 //     KFRM   per keyframe (ascending id): id, stamp, component, root, connected, T_world_cam (4x4),
 //            the Frame (id, stamp, camera, pyramid, bf, close depth, bounds, keypoints, uv, levels,
 //            descriptors, depth, u_right, map points, outlier flags, optional pose), BoW vector, feature
-//            vector, covisibility weights, ordered neighbours, parent, children. The feature grid is
+//            vector, covisibility weights, ordered neighbours, parent, children, loop edges (version 2;
+//            version 1 files, without them, are refused). The feature grid is
 //            rebuilt from uv and the bounds as Frame::finalize() builds it.
 //     MPTS   per map point (ascending id): every MapPoint field
 //     CULL   per culled keyframe (ascending id): id, parent, T_parent_kf (4x4)

@@ -71,7 +71,7 @@ struct MissionConfig {
   // frontier goal must also be one an idle robot can reach, and a robot that stands at a frontier's goal
   // or viewpoint facing away turns towards the frontier once. 0 (default): off.
   double explore_view_search_m = 0.0;
-  // Explore: a frontier's gain (planning.assignment.gain_weight_m_per_m2) is the unknown floor within this
+  // Explore: a frontier's gain (planner.assignment.gain_weight_m_per_m2) is the unknown floor within this
   // distance of its centroid that the centroid has in sight.
   double explore_gain_radius_m = 1.5;
   // Explore: a robot with no reachable frontier turns a quarter further (a short step that way) to see
