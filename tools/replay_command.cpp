@@ -9,7 +9,8 @@
 //   dense_map.ply            the agent's dense map (world = cam0 of the first tracked frame), when it has one
 //   metrics.json             frame counts, timing statistics and (with ground truth) the ATE
 // With --split N (the paper's multi-robot experiment, PAPER.md §5) the sequence's N consecutive parts
-// run as N robots, each with its own agent, whose first ground-truth pose is its initial-pose prior;
+// run as N robots, each with its own agent, whose initial-pose prior is the ground-truth pose of the frame
+// that starts its map;
 // the central unit merges their dense maps and fuses their trajectories, and DIR gets the server's
 // outputs (merged_map.ply, <robot>/map.ply, <robot>/trajectory.txt in the world frame, merge.json),
 // <robot>/groundtruth.txt, central_config.yaml and metrics.json with each robot's ATE in the world frame
