@@ -103,11 +103,7 @@ int LocalMapper::cull_recent_points(KeyframeId current, Map& map) {
   return culled;
 }
 
-void LocalMapper::process(KeyframeId current, Map& map, MappingReport& report) {
-  const Stopwatch watch;
-  report.keyframe = current;
-  report.culled_points = cull_recent_points(current, map);
-  if (config_.triangulate) report.triangulated = triangulate(current, map);
+void LocalMapper::fuse_or_link(KeyframeId current, Map& map, MappingReport& report) {
   if (config_.fuse) {
     report.fused = fuse(current, map);  // ends by updating the keyframe's covisibility
   } else if (report.triangulated > 0) {
@@ -115,6 +111,14 @@ void LocalMapper::process(KeyframeId current, Map& map, MappingReport& report) {
     // and the next triangulation use; fuse() updates them otherwise.
     map.update_connections(current, config_.covisibility_min_weight);
   }
+}
+
+void LocalMapper::process(KeyframeId current, Map& map, MappingReport& report) {
+  const Stopwatch watch;
+  report.keyframe = current;
+  report.culled_points = cull_recent_points(current, map);
+  if (config_.triangulate) report.triangulated = triangulate(current, map);
+  fuse_or_link(current, map, report);
   if (config_.local_ba) {
     if (const std::optional<LocalBaProblem> problem = prepare_local_ba(current, map)) {
       report.ba = apply_local_ba(*problem, solve_local_ba(*problem), map);

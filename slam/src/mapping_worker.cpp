@@ -87,7 +87,7 @@ void MappingWorker::process(KeyframeId keyframe) {
     const std::lock_guard<std::mutex> lock(map_mutex_);
     report.culled_points = mapper_.cull_recent_points(keyframe, map_);
     if (config.triangulate) report.triangulated = mapper_.triangulate(keyframe, map_);
-    if (config.fuse) report.fused = mapper_.fuse(keyframe, map_);
+    mapper_.fuse_or_link(keyframe, map_, report);
     if (config.local_ba) problem = mapper_.prepare_local_ba(keyframe, map_);
   }
   std::optional<BaResult> solved;

@@ -200,18 +200,23 @@ TEST(AgentSynthetic, AKeyframesFrameFollowsItsKeyframe) {
 
 // Without fusion the points triangulated at a keyframe still reach its covisibility weights: updating
 // them again from the map's observations changes nothing for the newest keyframe.
+// The threaded worker takes the same step (it had its own copy of the steps, without the update).
 TEST(AgentSynthetic, WithoutFusionCovisibilityFollowsTriangulation) {
   const auto& frames = sequence(core::SensorMode::kRgbd);
-  AgentConfig config;
-  config.mapping.fuse = false;
-  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
-  for (const core::SensorFrame& frame : frames) agent.process(frame);
-  Map map = agent.map_copy();
-  ASSERT_GE(map.keyframe_count(), 2u);
-  const KeyframeId newest = map.keyframes().rbegin()->first;
-  const std::map<KeyframeId, int> before = map.keyframe(newest)->connections;
-  map.update_connections(newest, config.mapping.covisibility_min_weight);
-  EXPECT_EQ(map.keyframe(newest)->connections, before);
+  for (const bool threaded : {false, true}) {
+    AgentConfig config;
+    config.mapping.fuse = false;
+    config.threaded = threaded;
+    Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+    for (const core::SensorFrame& frame : frames) agent.process(frame);
+    agent.finish();
+    Map map = agent.map_copy();
+    ASSERT_GE(map.keyframe_count(), 2u);
+    const KeyframeId newest = map.keyframes().rbegin()->first;
+    const std::map<KeyframeId, int> before = map.keyframe(newest)->connections;
+    map.update_connections(newest, config.mapping.covisibility_min_weight);
+    EXPECT_EQ(map.keyframe(newest)->connections, before) << (threaded ? "threaded" : "inline");
+  }
 }
 
 core::SensorFrame with_image(core::SensorFrame f, cv::Mat image) {

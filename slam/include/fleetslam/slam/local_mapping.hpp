@@ -118,6 +118,9 @@ class LocalMapper {
   int cull_recent_points(KeyframeId current, Map& map);
   int triangulate(KeyframeId current, Map& map);
   int fuse(KeyframeId current, Map& map);
+  // The step after triangulation, for the inline and the threaded path alike: fuse (when configured; it
+  // ends by updating the keyframe's covisibility), or else the covisibility update the new points need.
+  void fuse_or_link(KeyframeId current, Map& map, MappingReport& report);
   std::optional<LocalBaProblem> prepare_local_ba(KeyframeId current, const Map& map) const;
   BaResult solve_local_ba(const LocalBaProblem& problem) const;
   LocalBaOutcome apply_local_ba(const LocalBaProblem& problem, const BaResult& result, Map& map) const;
