@@ -104,8 +104,10 @@ Map Agent::map_copy() const {
 }
 
 void Agent::save_map(const std::filesystem::path& file) {
-  finish();
-  const Impl& s = *impl_;
+  // The workers' queued keyframes reach the map first; their changes stay for the next update or finish().
+  Impl& s = *impl_;
+  if (s.worker) s.worker->wait_idle();
+  if (s.dense_worker) s.dense_worker->wait_idle();
   const std::lock_guard<std::mutex> lock(s.map_mutex);
   slam::save_map(s.map, file, s.vocabulary ? vocabulary_fingerprint(*s.vocabulary) : 0);
 }

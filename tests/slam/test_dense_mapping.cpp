@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <vector>
 
@@ -308,11 +309,16 @@ TEST(DenseMapping, StereoDepthLiesOnTheTrueWalls) {
 
 // The agent on the synthetic room: the dense map matches the true walls, and a receiver that keeps
 // the latest dense_cam of every keyframe from the update stream holds the same cloud as the agent.
-void check_agent_dense_map(bool threaded) {
+// save_first: the map is saved before finish(), which must not take the pending changes with it.
+void check_agent_dense_map(bool threaded, bool save_first = false) {
   const test::SyntheticRoom room = test::default_room();
   const core::SensorRig rig = test::synthetic_rgbd_rig();
   AgentConfig config;
   config.threaded = threaded;
+  if (save_first) {  // a keyframe at the last frame (44): its mapping and cloud are pending at the end
+    config.keyframes.policy = KeyframePolicyKind::kFixedInterval;
+    config.keyframes.interval_frames = 4;
+  }
   Agent agent(config, rig, core::null_logger());
   std::map<KeyframeId, std::pair<Eigen::Isometry3d, core::PointCloud>> received;
   const auto receive = [&received](const KeyframeSnapshot& kf) {
@@ -328,6 +334,11 @@ void check_agent_dense_map(bool threaded) {
     for (const KeyframeSnapshot& kf : u.new_keyframes) receive(kf);
     for (const KeyframeSnapshot& kf : u.changed_keyframes) receive(kf);
     for (KeyframeId id : u.removed_keyframes) received.erase(id);
+  }
+  if (save_first) {
+    const std::filesystem::path file = std::filesystem::temp_directory_path() / "fleetslam_dense_save_first.fsmap";
+    agent.save_map(file);
+    std::filesystem::remove(file);
   }
   // What the workers did after the last frame (threaded mode) comes with finish(): nothing inline.
   const AgentUpdate last = agent.finish();
@@ -359,6 +370,10 @@ void check_agent_dense_map(bool threaded) {
 TEST(DenseMapping, AgentInlineDenseMapMatchesTheWallsAndTheUpdateStream) { check_agent_dense_map(false); }
 
 TEST(DenseMapping, AgentThreadedDenseMapMatchesTheWallsAndTheUpdateStream) { check_agent_dense_map(true); }
+
+// Saving the map waits for the workers but leaves their changes to finish() (it used to call finish() and
+// drop them: the last keyframes' clouds never reached a receiver).
+TEST(DenseMapping, SavingTheMapKeepsThePendingChangesForFinish) { check_agent_dense_map(true, true); }
 
 TEST(DenseMapping, DisabledDenseMappingSendsNoClouds) {
   const test::SyntheticRoom room = test::default_room();

@@ -192,7 +192,8 @@ class Agent {
 
   // A deep copy of the map as it is now (threaded mode: call finish() first for a settled one).
   Map map_copy() const;
-  // Saves the map (map_io.hpp) after finish(). Throws InputError naming the file when it cannot be written.
+  // Saves the map (map_io.hpp) once the workers are idle; their changes stay for the next update or
+  // finish(). Throws InputError naming the file when it cannot be written.
   void save_map(const std::filesystem::path& file);
   // Starts from a saved map: before the first frame only (InvariantError otherwise). Keyframes' BoW vectors
   // are recomputed when the file's vocabulary is not this agent's; the keyframe database indexes them; the
