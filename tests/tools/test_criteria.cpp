@@ -147,13 +147,20 @@ TEST(Criteria, UnmeasuredValuesFailWithANote) {
   EXPECT_FALSE((*find(v, "coverage", ""))["passed"].get<bool>());
   EXPECT_FALSE((*find(v, "map_accuracy_mean_m", ""))["passed"].get<bool>());
   EXPECT_EQ((*find(v, "lost_share", "a"))["note"], "no frames");
-  // Robots that are not planned have no goals criterion; nothing at all to judge is no crash.
+  // Robots that are not planned have no goals criterion.
   m["robots"][0]["planned"] = false;
   c = CriteriaConfig{};
   c.goals_reached = true;
   EXPECT_EQ(judge(c, m)["criteria"].size(), 1u);
-  EXPECT_TRUE(judge(c, nlohmann::json::object())["passed"].get<bool>());
-  EXPECT_TRUE(judge(c, nlohmann::json("odd"))["passed"].get<bool>());
+  // Per-robot criteria with no robot to judge fail with a note (they passed, judging nothing).
+  for (const nlohmann::json& nothing : {nlohmann::json::object(), nlohmann::json("odd"), nlohmann::json{{"robots", nlohmann::json::array()}}}) {
+    const nlohmann::json verdict = judge(c, nothing);
+    EXPECT_FALSE(verdict["passed"].get<bool>()) << nothing.dump();
+    ASSERT_EQ(verdict["criteria"].size(), 1u) << nothing.dump();
+    EXPECT_EQ(verdict["criteria"][0]["note"], "no robots to judge");
+  }
+  c = CriteriaConfig{};
+  EXPECT_TRUE(judge(c, nlohmann::json::object())["passed"].get<bool>()) << "no criteria: nothing to fail";
   // Fields of the wrong type are treated as absent, not thrown on: a robot named by a number is "?", one
   // whose "planned" is not a boolean is not planned (b, planned, is judged).
   m["robots"][0]["name"] = 7;

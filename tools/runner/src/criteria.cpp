@@ -42,7 +42,11 @@ class Verdict {
 
 nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
   Verdict verdict;
-  const nlohmann::json robots = metrics.contains("robots") && metrics["robots"].is_array() ? metrics["robots"] : nlohmann::json::array();
+  const nlohmann::json robots =
+      metrics.is_object() && metrics.contains("robots") && metrics["robots"].is_array() ? metrics["robots"] : nlohmann::json::array();
+  // Per-robot criteria with no robot to judge fail (they would otherwise add nothing and pass).
+  const bool per_robot = c.max_ate_m >= 0.0 || c.max_lost_share >= 0.0 || c.no_collisions || c.goals_reached;
+  if (per_robot && robots.empty()) verdict.add("robots", "", std::nullopt, 1.0, false, "no robots to judge");
   for (const nlohmann::json& robot : robots) {
     const auto name_field = robot.find("name");
     const std::string name =
