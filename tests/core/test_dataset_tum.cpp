@@ -252,10 +252,11 @@ TEST(TumRgbd, GroundTruthIsInterpolatedOnlyBetweenCloseNeighbours) {
   TempDir dir;
   std::vector<SensorFrame> frames = make_frames(4);
   write_sequence(dir.path(), frames);
-  // Ground truth at 10 ms around frame 4 only, translated along x.
+  // Ground truth at 10 ms around frame 4 only, translated along x and turned 40 degrees about z.
   Eigen::Isometry3d T_a = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_b = Eigen::Isometry3d::Identity();
   T_b.translation().x() = 1.0;
+  T_b.linear() = Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   write_trajectory(dir / "gt.txt", {{stamp(4) - 10000000, T_a}, {stamp(4) + 30000000, T_b}}, TrajectoryFormat::kTum);
   DatasetConfig config;
   config.groundtruth_file = (dir / "gt.txt").string();
@@ -264,6 +265,10 @@ TEST(TumRgbd, GroundTruthIsInterpolatedOnlyBetweenCloseNeighbours) {
   auto read = read_all(*open(dir.path(), config));
   ASSERT_TRUE(read[4].T_world_cam_gt.has_value());
   EXPECT_NEAR(read[4].T_world_cam_gt->translation().x(), 0.25, 1e-12);
+  // A quarter of the way: a quarter of the turn, about the same axis (slerp).
+  const Eigen::AngleAxisd turned(read[4].T_world_cam_gt->linear());
+  EXPECT_NEAR(turned.angle(), 10.0 * M_PI / 180.0, 1e-9);
+  EXPECT_NEAR(turned.axis().z(), 1.0, 1e-9);
   EXPECT_FALSE(read[3].T_world_cam_gt.has_value());  // outside the poses
   config.max_groundtruth_gap_s = 0.02;                // 30 ms to the later pose is too far now
   read = read_all(*open(dir.path(), config));

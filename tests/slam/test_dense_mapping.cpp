@@ -347,6 +347,9 @@ void check_agent_dense_map(bool threaded, bool save_first = false) {
   if (!threaded) {
     EXPECT_TRUE(last.new_keyframes.empty() && last.changed_keyframes.empty() && last.removed_keyframes.empty());
   }
+  if (save_first) {  // the premise: changes were pending when the map was saved, and finish() has them
+    ASSERT_FALSE(last.new_keyframes.empty() && last.changed_keyframes.empty());
+  }
   for (const KeyframeSnapshot& kf : last.new_keyframes) receive(kf);
   for (const KeyframeSnapshot& kf : last.changed_keyframes) receive(kf);
   for (KeyframeId id : last.removed_keyframes) received.erase(id);
