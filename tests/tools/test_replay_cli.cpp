@@ -209,17 +209,36 @@ TEST(ReplayCli, BodyPoseGroundTruthOfATumSequenceIsNotReadAsCameraPoses) {
   if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum;
   const fs::path dir = test_dir();
   const fs::path out = dir / "run";
-  // The calibration with a body-to-camera transform (identity) for the body poses.
+  // A calibration whose body sits 0.5 m beside the camera, turned 90 degrees, and the excerpt's camera
+  // poses turned into that body's poses.
+  Eigen::Isometry3d T_body_cam = Eigen::Isometry3d::Identity();
+  T_body_cam.linear() = Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_body_cam.translation() = Eigen::Vector3d(0.5, 0.0, 0.3);
   std::ofstream(dir / "calibration.yaml")
       << read_text(kData / "calib" / "TUM1.yaml")
-      << "\nTbc: !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: f\n  data: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"
+      << "\nTbc: !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: f\n  data: [0,-1,0,0.5, 1,0,0,0, 0,0,1,0.3, 0,0,0,1]\n"
       << "IMU.NoiseGyro: 1.7e-04\nIMU.NoiseAcc: 2.0e-03\nIMU.GyroWalk: 1.9393e-05\nIMU.AccWalk: 3.e-03\nIMU.Frequency: 200.0\n";
+  const core::Trajectory cameras = core::read_trajectory(kTum / "groundtruth.txt");
+  core::Trajectory bodies = cameras;
+  for (core::StampedPose& p : bodies) p.T_world_body = p.T_world_body * T_body_cam.inverse();
+  core::write_trajectory(dir / "body.txt", bodies, core::TrajectoryFormat::kTum);
   const RunResult r = run("-q replay '" + kTum.string() + "' --calibration '" + (dir / "calibration.yaml").string() +
-                          "' --max-frames 10 --groundtruth '" + (kTum / "groundtruth.txt").string() +
+                          "' --max-frames 30 --groundtruth '" + (dir / "body.txt").string() +
                           "' --groundtruth-body --out '" + out.string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
   EXPECT_EQ(metrics["ate"]["groundtruth"], "per-frame ground truth of the dataset reader") << metrics["ate"].dump();
+  EXPECT_EQ(metrics["ate"]["pairs"], 30);
+  EXPECT_LT(metrics["ate"]["ate_m"]["rmse"].get<double>(), 0.03) << metrics["ate"].dump();
+  // The per-frame truth is the camera's again: each pose lies on the excerpt's camera trajectory.
+  const core::Trajectory per_frame = core::read_trajectory(out / "groundtruth.txt");
+  ASSERT_EQ(per_frame.size(), 30u);
+  for (const core::StampedPose& p : per_frame) {
+    const auto nearest = std::min_element(cameras.begin(), cameras.end(), [&](const core::StampedPose& a, const core::StampedPose& b) {
+      return std::llabs(a.t_ns - p.t_ns) < std::llabs(b.t_ns - p.t_ns);
+    });
+    EXPECT_LT((nearest->T_world_body.translation() - p.T_world_body.translation()).norm(), 0.02) << p.t_ns;
+  }
 }
 
 TEST(ReplayCli, SplitNeedsEnoughFrames) {
