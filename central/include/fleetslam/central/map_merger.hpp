@@ -26,7 +26,9 @@
 // When neither the prior nor either hypothesis puts min_consistency of the cloud on the merged map, the
 // pairs were no common surface and count as no overlap: the robot waits, then keeps its prior (or is left
 // out) with status "no common surface on N pairs: ..." (seen on the apartment, exact priors, 10 s: a wide
-// round on 122 pairs of different surfaces 11 cm apart moved a robot 25 cm with a share of 0.0009).
+// round on 122 pairs of different surfaces 11 cm apart moved a robot 25 cm with a share of 0.0009; and
+// on the office after 3 s, 392 pairs: a wide round with a share of 0.029 against the prior's 0.009 moved
+// a robot 10 cm off to 59 cm off. Shares of correct corrections there were 0.14 to 0.41).
 // Otherwise a hypothesis is applied only when its share is at least min_consistency and exceeds the
 // prior's by more than min_consistency_gain (relative):
 // otherwise the overlap confirms the prior, which stays (hypothesis "prior"; a small overlap says too
@@ -102,7 +104,7 @@ struct MapMergerConfig {
   bool local_hypothesis = true;
   double consistency_distance_m = 0.02;
   double min_consistency_gain = 0.1;
-  double min_consistency = 0.005;
+  double min_consistency = 0.05;  // 5 % (see above)
   int min_overlap_points = 100;     // fewer mutual pairs: no fine matching, the robot waits (see above)
   double min_inlier_ratio = 0.5;    // a GICP result with fewer inliers is discarded
   // A registration that moves the cloud (its centroid; its rotation) further from where its prior put it
