@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <future>
 #include <limits>
 #include <optional>
@@ -10,6 +9,7 @@
 #include <string>
 
 #include <opencv2/imgproc.hpp>
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
 #include "fleetslam/core/error.hpp"
@@ -322,18 +322,13 @@ void World::Impl::check_actuator_stability() const {
       const double inertia = data->qM[m->dof_Madr[dof]];
       const double factor = dt * kv / inertia;
       if (!(factor < 1.0)) {
-        const auto g = [](double x) {
-          char text[32];
-          std::snprintf(text, sizeof text, "%.4g", x);
-          return std::string(text);
-        };
         const bool yaw = dof == robot.dof_yaw;
         throw InputError(scenario.scene + ": robot " + robot.config.name,
-                         "physics_step_s " + g(dt) + " s is too long for its " + (yaw ? "yaw inertia " : "mass ") +
-                             g(inertia) + (yaw ? " kg m^2" : " kg") +
-                             ": its velocity control would overshoot or diverge (step x gain / " +
-                             (yaw ? "inertia" : "mass") + " = " + g(factor) + ", at most 1); use physics_step_s below " +
-                             g(inertia / kv) + " s or a larger robot");
+                         fmt::format("physics_step_s {:.4g} s is too long for its {} {:.4g} {}: its velocity control "
+                                     "would overshoot or diverge (step x gain / {} = {:.4g}, at most 1); use "
+                                     "physics_step_s below {:.4g} s or a larger robot",
+                                     dt, yaw ? "yaw inertia" : "mass", inertia, yaw ? "kg m^2" : "kg",
+                                     yaw ? "inertia" : "mass", factor, inertia / kv));
       }
     }
   }

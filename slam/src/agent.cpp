@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <mutex>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
 #include "agent_impl.hpp"
@@ -125,13 +125,12 @@ void Agent::load_map(const std::filesystem::path& file) {
     if (c.width() != camera.width() || c.height() != camera.height() || differs(c.fx(), camera.fx()) ||
         differs(c.fy(), camera.fy()) || differs(c.cx(), camera.cx()) || differs(c.cy(), camera.cy()) ||
         differs(kf.frame.bf, s.builder.bf())) {
-      char text[256];
-      std::snprintf(text, sizeof text,
-                    "keyframe %lld was made with another camera (%dx%d, fx %.3f fy %.3f cx %.3f cy %.3f, bf %.3f) than "
-                    "this agent's (%dx%d, fx %.3f fy %.3f cx %.3f cy %.3f, bf %.3f)",
-                    static_cast<long long>(id), c.width(), c.height(), c.fx(), c.fy(), c.cx(), c.cy(), kf.frame.bf,
-                    camera.width(), camera.height(), camera.fx(), camera.fy(), camera.cx(), camera.cy(), s.builder.bf());
-      throw InputError(file.string(), text);
+      const auto describe = [](const core::PinholeCamera& cam, double bf) {
+        return fmt::format("{}x{}, fx {:.3f} fy {:.3f} cx {:.3f} cy {:.3f}, bf {:.3f}", cam.width(), cam.height(), cam.fx(),
+                           cam.fy(), cam.cx(), cam.cy(), bf);
+      };
+      throw InputError(file.string(), fmt::format("keyframe {} was made with another camera ({}) than this agent's ({})", id,
+                                                  describe(c, kf.frame.bf), describe(camera, s.builder.bf())));
     }
   }
   const std::lock_guard<std::mutex> lock(s.map_mutex);
