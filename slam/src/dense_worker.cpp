@@ -21,6 +21,7 @@ DenseWorker::~DenseWorker() {
 void DenseWorker::push(KeyframeId keyframe, core::SensorFrame sensor) {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
+    if (failure_) std::rethrow_exception(failure_);
     queue_.emplace_back(keyframe, std::move(sensor));
   }
   wake_.notify_one();
@@ -28,6 +29,7 @@ void DenseWorker::push(KeyframeId keyframe, core::SensorFrame sensor) {
 
 std::vector<std::pair<KeyframeId, core::PointCloud>> DenseWorker::take_ready() {
   const std::lock_guard<std::mutex> lock(mutex_);
+  if (failure_) std::rethrow_exception(failure_);
   std::vector<std::pair<KeyframeId, core::PointCloud>> out;
   out.swap(ready_);
   return out;
@@ -36,6 +38,7 @@ std::vector<std::pair<KeyframeId, core::PointCloud>> DenseWorker::take_ready() {
 void DenseWorker::wait_idle() {
   std::unique_lock<std::mutex> lock(mutex_);
   idle_.wait(lock, [this] { return queue_.empty() && !busy_; });
+  if (failure_) std::rethrow_exception(failure_);
 }
 
 void DenseWorker::run() {
@@ -50,16 +53,24 @@ void DenseWorker::run() {
       busy_ = true;
     }
     core::PointCloud cloud;
+    std::exception_ptr failure;
     try {
       cloud = mapper_.keyframe_cloud(job.second);
-    } catch (const std::exception& e) {
-      // A thread must not let an exception escape (std::terminate); the keyframe simply gets no cloud.
-      logger_->error("dense cloud of keyframe {} failed: {}", job.first, e.what());
+    } catch (...) {
+      // An exception must not escape the thread (std::terminate): it goes to the agent's thread instead,
+      // and the keyframes queued behind it are dropped.
+      failure = std::current_exception();
+      logger_->error("dense cloud of keyframe {} failed; the agent's next call rethrows the error", job.first);
     }
     {
       const std::lock_guard<std::mutex> lock(mutex_);
-      ready_.emplace_back(job.first, std::move(cloud));
       busy_ = false;
+      if (!failure) {
+        ready_.emplace_back(job.first, std::move(cloud));
+      } else if (!failure_) {
+        failure_ = failure;
+        queue_.clear();
+      }
     }
     idle_.notify_all();
   }

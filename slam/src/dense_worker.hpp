@@ -6,6 +6,7 @@
 
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <utility>
@@ -25,6 +26,8 @@ class DenseWorker {
   DenseWorker(const DenseWorker&) = delete;
   DenseWorker& operator=(const DenseWorker&) = delete;
 
+  // push, take_ready and wait_idle rethrow, on the agent's thread, the first exception a cloud threw on
+  // the worker, as the inline mode throws it from Agent::process; the worker computes nothing after it.
   void push(KeyframeId keyframe, core::SensorFrame sensor);
   // Clouds finished since the last call, in the order their keyframes were pushed.
   std::vector<std::pair<KeyframeId, core::PointCloud>> take_ready();
@@ -43,6 +46,7 @@ class DenseWorker {
   std::vector<std::pair<KeyframeId, core::PointCloud>> ready_;
   bool busy_ = false;
   bool stop_ = false;
+  std::exception_ptr failure_;  // guarded by mutex_
   std::thread thread_;  // last: starts after every member it uses exists
 };
 

@@ -36,6 +36,7 @@ MappingWorker::~MappingWorker() {
 void MappingWorker::push(KeyframeId keyframe) {
   {
     const std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (failure_) std::rethrow_exception(failure_);
     queue_.push_back(keyframe);
   }
   wake_.notify_one();
@@ -43,12 +44,14 @@ void MappingWorker::push(KeyframeId keyframe) {
 
 int MappingWorker::pending() const {
   const std::lock_guard<std::mutex> lock(queue_mutex_);
+  if (failure_) std::rethrow_exception(failure_);
   return static_cast<int>(queue_.size()) + (busy_ ? 1 : 0);
 }
 
 void MappingWorker::wait_idle() {
   std::unique_lock<std::mutex> lock(queue_mutex_);
   idle_.wait(lock, [this] { return queue_.empty() && !busy_; });
+  if (failure_) std::rethrow_exception(failure_);
 }
 
 void MappingWorker::run() {
@@ -62,16 +65,23 @@ void MappingWorker::run() {
       queue_.pop_front();
       busy_ = true;
     }
+    std::exception_ptr failure;
     try {
       process(keyframe);
       if (after_) after_(keyframe);
-    } catch (const std::exception& e) {
-      // A thread must not let an exception escape (std::terminate); the keyframe simply gets no upkeep.
-      logger_->error("local mapping of keyframe {} failed: {}", keyframe, e.what());
+    } catch (...) {
+      // An exception must not escape the thread (std::terminate): it goes to the agent's thread instead,
+      // and the keyframes queued behind it are dropped.
+      failure = std::current_exception();
+      logger_->error("local mapping of keyframe {} failed; the agent's next call rethrows the error", keyframe);
     }
     {
       const std::lock_guard<std::mutex> lock(queue_mutex_);
       busy_ = false;
+      if (failure && !failure_) {
+        failure_ = failure;
+        queue_.clear();
+      }
     }
     idle_.notify_all();
   }

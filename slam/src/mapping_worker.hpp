@@ -6,6 +6,7 @@
 
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <set>
@@ -36,6 +37,9 @@ class MappingWorker {
   MappingWorker(const MappingWorker&) = delete;
   MappingWorker& operator=(const MappingWorker&) = delete;
 
+  // push, pending and wait_idle rethrow, on the agent's thread, the first exception local mapping (or
+  // `after`) threw on the worker, as the inline mode throws it from Agent::process; the worker maps
+  // nothing after it.
   void push(KeyframeId keyframe);
   // Keyframes queued or being processed.
   int pending() const;
@@ -59,6 +63,7 @@ class MappingWorker {
   std::deque<KeyframeId> queue_;
   bool busy_ = false;
   bool stop_ = false;
+  std::exception_ptr failure_;  // guarded by queue_mutex_
   std::thread thread_;  // last: starts after every member it uses exists
 };
 
