@@ -71,10 +71,13 @@ std::optional<std::pair<FrameBuildStatus, std::string>> image_problem(const cv::
 
 std::optional<std::string> right_problem(const core::SensorFrame& sensor) {
   if (sensor.right.empty()) return std::string("the stereo rig's right image is missing");
-  if (sensor.right.type() != sensor.image.type() || sensor.right.size() != sensor.image.size()) {
-    return "the right image (" + size_text(sensor.right.cols, sensor.right.rows) + ", type " +
-           std::to_string(sensor.right.type()) + ") differs from the left (" +
-           size_text(sensor.image.cols, sensor.image.rows) + ", type " + std::to_string(sensor.image.type()) + ")";
+  // Each image is converted to gray on its own: a colour left and a gray right image make a pair.
+  if (!supported_type(sensor.right.type())) {
+    return "the right image's type " + std::to_string(sensor.right.type()) + " is not 8-bit gray, BGR or BGRA";
+  }
+  if (sensor.right.size() != sensor.image.size()) {
+    return "the right image is " + size_text(sensor.right.cols, sensor.right.rows) + ", the left " +
+           size_text(sensor.image.cols, sensor.image.rows);
   }
   return std::nullopt;
 }
@@ -129,6 +132,17 @@ std::string to_string(FrameBuildStatus status) {
 
 FrameBuilder::FrameBuilder(const FrameBuilderConfig& config, const core::SensorRig& rig)
     : config_(config), rig_(rig), extractor_(config.orb) {
+  if (is_rgbd() && !(config.min_depth_m < config.max_depth_m)) {
+    throw InputError("frontend", "min_depth_m (" + std::to_string(config.min_depth_m) +
+                                     ") must be below max_depth_m (" + std::to_string(config.max_depth_m) +
+                                     "): no depth reading could be kept");
+  }
+  // Monocular and RGB-D undistort cam0 into a pinhole camera, which cannot hold a fisheye's field of view
+  // (its image area would reach hundreds of thousands of pixels); stereo rectifies a fisheye pair instead.
+  if (rig.cam0.distortion().is_equidistant() && !is_stereo()) {
+    throw InputError("sensor rig", "a fisheye (equidistant) cam0 is used through stereo rectification only; "
+                                   "this rig's mode is " + std::string(core::to_string(rig.mode)));
+  }
   camera_ = rig.cam0.undistorted();
   bounds_ = undistorted_image_bounds(rig.cam0);
   if (is_rgbd()) {
@@ -210,7 +224,12 @@ void FrameBuilder::build_stereo(FrameBuildResult& result, const core::SensorFram
   if (problem) {
     set_status(result, FrameBuildStatus::kBadRightImage, sensor, *problem);
     if (rectification_) {
-      cv::remap(gray, left, rectification_->map0_x, rectification_->map0_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+      // Into a new image: `left` may share the caller's pixels (to_gray returns a gray image as it is),
+      // and remap would write the rectified view over them.
+      cv::Mat rectified;
+      cv::remap(gray, rectified, rectification_->map0_x, rectification_->map0_y, cv::INTER_LINEAR,
+                cv::BORDER_CONSTANT);
+      left = rectified;
     }
   } else if (rectification_) {
     std::tie(left, right) = core::rectify_images(*rectification_, gray, to_gray(sensor.right));
@@ -226,8 +245,15 @@ void FrameBuilder::build_stereo(FrameBuildResult& result, const core::SensorFram
   match_stereo_levels(result.frame, left_features.levels, right_features.keypoints, right_features.descriptors,
                       right_features.levels, config_.stereo);
   const double baseline_m = bf_ / camera_.fx();
-  result.features_with_depth = keep_depths_in_range(result.frame, config_.min_depth_m,
-                                                    config_.stereo_max_depth_baselines * baseline_m);
+  const double max_depth_m = config_.stereo_max_depth_baselines * baseline_m;
+  result.features_with_depth = keep_depths_in_range(result.frame, config_.min_depth_m, max_depth_m);
+  if (result.features_with_depth == 0 && result.frame.size() > 0) {
+    set_status(result, FrameBuildStatus::kNoDepth, sensor,
+               "no stereo match at " + std::to_string(config_.min_depth_m) + " m or farther" +
+                   (max_depth_m > 0.0 ? " (and within " + std::to_string(max_depth_m) + " m)" : std::string()) +
+                   " for any of " + std::to_string(result.frame.size()) + " features (" +
+                   std::to_string(result.right_features) + " in the right image)");
+  }
 }
 
 void FrameBuilder::add_features(Frame& frame, const OrbFeatures& features, bool undistort) const {

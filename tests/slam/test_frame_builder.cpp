@@ -271,6 +271,9 @@ TEST(FrameBuilder, BadInputGivesAStatusNotACrash) {
        FrameBuildStatus::kBadRightImage, true},
       {"stereo, empty left image", true, [](core::SensorFrame& s) { s.image = cv::Mat(); }, FrameBuildStatus::kEmptyImage,
        false},
+      {"16-bit right image", true, [](core::SensorFrame& s) { s.right = cv::Mat(480, 640, CV_16UC1, cv::Scalar(300)); },
+       FrameBuildStatus::kBadRightImage, true},
+      {"black right image", true, [](core::SensorFrame& s) { s.right.setTo(0); }, FrameBuildStatus::kNoDepth, true},
   };
   const FrameBuilder rgbd(FrameBuilderConfig{}, rgbd_rig());
   const FrameBuilder stereo(FrameBuilderConfig{}, distorted_stereo_rig());
@@ -282,8 +285,15 @@ TEST(FrameBuilder, BadInputGivesAStatusNotACrash) {
       sensor.depth_m = cv::Mat();
     }
     c.spoil(sensor);
+    const cv::Mat image_before = sensor.image.clone();
     FrameBuildResult result;
     ASSERT_NO_THROW(result = (c.stereo ? stereo : rgbd).build(sensor)) << c.name;
+    // build() takes the frame as const: its pixels stay as they were (a gray left image without a right
+    // one had been overwritten by its rectified view).
+    EXPECT_EQ(sensor.image.size(), image_before.size()) << c.name;
+    if (!image_before.empty()) {
+      EXPECT_EQ(cv::norm(sensor.image, image_before, cv::NORM_INF), 0.0) << c.name;
+    }
     EXPECT_EQ(result.status, c.status) << c.name;
     EXPECT_NE(result.reason.find("frame 17"), std::string::npos) << c.name << ": " << result.reason;
     EXPECT_EQ(result.frame.size() > 0, c.keeps_features) << c.name;
@@ -309,6 +319,36 @@ TEST(FrameBuilder, UnusableRigsAreConfigurationErrors) {
   FrameBuilderConfig bad_orb;
   bad_orb.orb.min_fast_threshold = 50;
   EXPECT_THROW(FrameBuilder(bad_orb, rgbd_rig()), InputError);
+  FrameBuilderConfig empty_range;  // each value within its limits, the range empty
+  empty_range.min_depth_m = 5.0;
+  empty_range.max_depth_m = 2.0;
+  EXPECT_THROW(FrameBuilder(empty_range, rgbd_rig()), InputError);
+  // A fisheye cam0 would be undistorted to a pinhole camera outside stereo.
+  for (const core::SensorMode mode : {core::SensorMode::kRgbd, core::SensorMode::kMonocular}) {
+    core::SensorRig fisheye = fisheye_stereo_rig();
+    fisheye.mode = mode;
+    fisheye.cam1.reset();
+    EXPECT_THROW(FrameBuilder(FrameBuilderConfig{}, fisheye), InputError) << core::to_string(mode);
+  }
+  EXPECT_NO_THROW(FrameBuilder(FrameBuilderConfig{}, fisheye_stereo_rig()));
+}
+
+TEST(FrameBuilder, AColourLeftAndAGrayRightImageMakeAStereoPair) {
+  const FrameBuilder stereo(FrameBuilderConfig{}, distorted_stereo_rig());
+  core::SensorFrame sensor = rgbd_frame();
+  sensor.depth_m = cv::Mat();
+  cv::Mat gray;
+  cv::cvtColor(sensor.image, gray, cv::COLOR_BGR2GRAY);
+  sensor.right = gray;  // whatever depth this pair gives, the gray pair of the same images gives it too
+  const FrameBuildResult mixed = stereo.build(sensor);
+  EXPECT_NE(mixed.status, FrameBuildStatus::kBadRightImage) << mixed.reason;
+  EXPECT_GT(mixed.right_features, 0);
+  core::SensorFrame same = sensor;
+  same.image = gray;
+  const FrameBuildResult gray_pair = stereo.build(same);
+  EXPECT_EQ(mixed.status, gray_pair.status);
+  EXPECT_EQ(mixed.right_features, gray_pair.right_features);
+  EXPECT_EQ(mixed.features_with_depth, gray_pair.features_with_depth);
 }
 
 TEST(FrameBuilder, ConfigReadsFromYamlAndStatusesHaveNames) {

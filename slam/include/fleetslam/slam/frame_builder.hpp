@@ -22,13 +22,16 @@
 //   kUnsupportedImage     image not CV_8UC1 / CV_8UC3 / CV_8UC4        -> no features
 //   kWrongImageSize       image size differs from rig.cam0's           -> no features
 //   kNoDepth              RGB-D: depth empty, not CV_32FC1, of another size than the image, or
-//                         without a single valid reading at a feature  -> features, no depth
-//   kBadRightImage        stereo: right image missing, of another size or type than the left
+//                         without a single valid reading at a feature; stereo: no feature with a
+//                         stereo match in range                        -> features, no depth
+//   kBadRightImage        stereo: right image missing, of another size than the left or of a type
+//                         not listed above (each image is made gray on its own)
 //                         -> features of the left image, no depth
 // In each "no features" case the frame still has its camera, pyramid, bf, close depth, stamp and an
 // (empty) grid, so the agent can treat it like a frame in which nothing was seen. A rig the builder
-// cannot work with (stereo without cam1 or with cameras that cannot be rectified, RGB-D with bf <= 0)
-// is a configuration error: the constructor throws InputError("sensor rig", why).
+// cannot work with (stereo without cam1 or with cameras that cannot be rectified, RGB-D with bf <= 0, a
+// fisheye cam0 outside stereo) is a configuration error: the constructor throws InputError("sensor rig",
+// why); so is an RGB-D depth range that keeps nothing (min_depth_m >= max_depth_m).
 
 #include <optional>
 #include <string>
