@@ -434,9 +434,11 @@ MergeResult MapMerger::merge(const std::vector<RobotCloud>& robots) const {
         ++it;
       }
     }
-    if (!placed_any && !pending.empty()) {  // nobody overlaps: the first waiting robot keeps its prior
-      const auto first = std::find_if(pending.begin(), pending.end(),
-                                      [&](std::size_t i) { return robots[i].keep_prior_without_overlap; });
+    if (!placed_any && !pending.empty()) {  // nobody overlaps: the first pending robot keeps its prior
+      // ... one that waits for nobody: a later component keeps waiting for the input it continues.
+      const auto first = std::find_if(pending.begin(), pending.end(), [&](std::size_t i) {
+        return robots[i].keep_prior_without_overlap && !waits(i);
+      });
       if (first == pending.end()) {
         const bool any_waiting = std::any_of(pending.begin(), pending.end(), waits);
         if (in_order && any_waiting) {  // what they wait for will never be placed: try them anyway

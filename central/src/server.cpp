@@ -164,11 +164,11 @@ const RobotSpec& Server::spec(int robot_id) const { return state(robot_id).spec;
 const RobotCounters& Server::counters(int robot_id) const { return state(robot_id).counters; }
 
 void Server::take_keyframe(RobotState& robot, const slam::KeyframeSnapshot& kf) {
-  if (robot.component < 0) robot.component = kf.component;
   if (!finite_pose(kf.T_world_cam)) {
     logger_->warn("{}: keyframe {} has a non-finite pose; ignored", robot.spec.name, kf.id);
     return;
   }
+  if (robot.component < 0) robot.component = kf.component;  // the map of the first keyframe kept
   if (kf.component != robot.component && robot.keyframes.count(kf.id) == 0) ++robot.counters.other_component_keyframes;
   ServerKeyframe& entry = robot.keyframes[kf.id];
   entry.t_ns = kf.t_ns;

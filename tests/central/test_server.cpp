@@ -193,6 +193,26 @@ TEST(Server, BadUpdatesAreCountedNotFatal) {
   EXPECT_THROW(server.robot_cloud(42), InputError);
 }
 
+// A first keyframe with a non-finite pose is ignored before it names the robot's map: the map of the first
+// keyframe kept (component 1, after a restart) is the robot's first map, not another component.
+TEST(Server, AnIgnoredFirstKeyframeDoesNotNameTheRobotsMap) {
+  const TwoRobots s;
+  Server server(ServerConfig{}, core::null_logger());
+  server.add_robot({0, "a", s.T_world_a, {}});
+  slam::AgentUpdate first = update(0, 1, 1'000, Eigen::Isometry3d::Identity());
+  first.new_keyframes.push_back(keyframe(0, 1'000, s.T_world_a, s.T_world_a, s.room, 0.0, 2.0));
+  first.new_keyframes.back().T_world_cam.translation().x() = NAN;
+  EXPECT_EQ(server.integrate(first), IntegrateStatus::kAccepted);
+  slam::AgentUpdate restarted = update(0, 2, 2'000, Eigen::Isometry3d::Identity());
+  restarted.component = 1;
+  restarted.new_keyframes.push_back(keyframe(1, 2'000, s.T_world_a, s.T_world_a, s.room, 0.0, 2.0));
+  restarted.new_keyframes.back().component = 1;
+  EXPECT_EQ(server.integrate(restarted), IntegrateStatus::kAccepted);
+  EXPECT_EQ(server.counters(0).other_component_keyframes, 0u);
+  EXPECT_EQ(server.robot_keyframes(0).size(), 1u);
+  EXPECT_FALSE(server.robot_cloud(0).empty()) << "the robot's first map is component 1";
+}
+
 // An agent's changes after its last frame (Agent::finish) carry that frame's sequence: accepted, not
 // counted as a frame, and the frames' order is kept.
 TEST(Server, MapChangesAfterTheLastFrameAreAccepted) {
