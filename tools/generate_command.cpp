@@ -178,7 +178,6 @@ std::vector<RobotOutput> open_outputs(const fs::path& out, const sim::World& wor
     output.name = world.robot_config(i).name;
     output.rig = sequence_rig(world.sensor_rig(i), format);
     output.sink = core::make_dataset_writer(out / output.name, format, output.rig, logger);
-    core::write_orbslam_settings(out / output.name / kSettingsFile, orbslam_settings(output.rig));
     outputs.push_back(std::move(output));
   }
   return outputs;
@@ -193,7 +192,7 @@ void prepare_for_euroc(core::SensorFrame& frame) {
 }
 
 // Steps the world to its end and hands each written robot's frames to its sink.
-void run_world(sim::World& world, std::vector<RobotOutput>& outputs, core::DatasetFormat format,
+void run_world(sim::World& world, const fs::path& out, std::vector<RobotOutput>& outputs, core::DatasetFormat format,
                const core::Logger& logger) {
   if (format == core::DatasetFormat::kEuroc) logger->info("EuRoC layout: images written gray, depth maps left out");
   core::Progress progress =
@@ -210,7 +209,11 @@ void run_world(sim::World& world, std::vector<RobotOutput>& outputs, core::Datas
     progress.update(static_cast<std::size_t>(world.time_ns() / 1000000));
   }
   progress.finish();
-  for (RobotOutput& output : outputs) output.sink->close();
+  // The settings go into each finished sequence's folder (the writer makes it complete at close()).
+  for (RobotOutput& output : outputs) {
+    output.sink->close();
+    core::write_orbslam_settings(out / output.name / kSettingsFile, orbslam_settings(output.rig));
+  }
 }
 
 void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
@@ -228,7 +231,7 @@ void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
   sim::World world(scenario, logger);
   write_effective_scenario(out / kScenarioFile, scenario);
   std::vector<RobotOutput> outputs = open_outputs(out, world, selected, format, logger);
-  run_world(world, outputs, format, logger);
+  run_world(world, out, outputs, format, logger);
   for (const RobotOutput& output : outputs) {
     std::cout << output.name << ": " << output.sink->frames_written() << " frames ("
               << core::to_string(output.rig.mode) << ") -> " << (out / output.name).string() << "\n";

@@ -71,7 +71,18 @@ std::vector<double> SettingsFile::numbers(const std::string& key, std::initializ
   return values;
 }
 
-void create_output_folder(const std::filesystem::path& root) {
+namespace {
+
+// `root` without a trailing separator, so that a sibling can be named after it ("out/" -> "out").
+std::filesystem::path without_trailing_separator(const std::filesystem::path& root) {
+  std::filesystem::path r = root.lexically_normal();
+  if (r.filename().empty() && r.has_parent_path()) r = r.parent_path();
+  return r;
+}
+
+}  // namespace
+
+std::filesystem::path begin_staged_folder(const std::filesystem::path& root) {
   std::error_code ec;
   if (std::filesystem::exists(root, ec)) {
     if (!std::filesystem::is_directory(root, ec)) throw InputError(root.string(), "exists and is not a folder");
@@ -79,8 +90,25 @@ void create_output_folder(const std::filesystem::path& root) {
       throw InputError(root.string(), "output folder exists and is not empty (refusing to mix sequences)");
     }
   }
-  std::filesystem::create_directories(root, ec);
-  if (ec) throw InputError(root.string(), "cannot create the folder: " + ec.message());
+  const std::filesystem::path r = without_trailing_separator(root);
+  if (r.filename().empty() || r.filename() == "." || r.filename() == "..") {
+    throw InputError(root.string(), "name the output folder itself (a sequence is written beside it first)");
+  }
+  std::filesystem::path staging = r;
+  staging += ".partial";
+  std::filesystem::remove_all(staging, ec);
+  if (ec) throw InputError(staging.string(), "cannot remove an earlier incomplete write: " + ec.message());
+  std::filesystem::create_directories(staging, ec);
+  if (ec) throw InputError(staging.string(), "cannot create the folder: " + ec.message());
+  return staging;
+}
+
+void commit_staged_folder(const std::filesystem::path& staging, const std::filesystem::path& root) {
+  const std::filesystem::path r = without_trailing_separator(root);
+  std::error_code ec;
+  if (std::filesystem::is_directory(r, ec) && std::filesystem::is_empty(r, ec)) std::filesystem::remove(r, ec);
+  std::filesystem::rename(staging, r, ec);
+  if (ec) throw InputError(r.string(), "cannot move the written sequence here from " + staging.string() + ": " + ec.message());
 }
 
 void write_image(const std::filesystem::path& file, const cv::Mat& image) {

@@ -4,8 +4,11 @@
 #include <cmath>
 #include <system_error>
 
+#include <spdlog/logger.h>
+
 #include "dataset_internal.hpp"
 #include "fleetslam/core/error.hpp"
+#include "fleetslam/core/time.hpp"
 
 namespace fleetslam::core::dataset_detail {
 
@@ -31,7 +34,8 @@ std::optional<Eigen::Isometry3d> pose_at(const Trajectory& trajectory, TimeNs t_
 }
 
 void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
-                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config) {
+                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
+                        const Logger& logger) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) throw InputError(file.string(), "missing ground-truth file");
   // Real ground-truth files repeat stamps now and then; the TUM tools keep the last pose of a stamp.
@@ -39,10 +43,24 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
   options.duplicate_stamps = DuplicateStamps::kKeepLast;
   const Trajectory trajectory = read_trajectory_file(file, options).trajectory;
   const TimeNs max_gap_ns = seconds_to_ns(config.max_groundtruth_gap_s);
+  std::size_t covered = 0;
   for (FrameEntry& entry : sequence.entries) {
     std::optional<Eigen::Isometry3d> T_world_body = pose_at(trajectory, entry.t_ns, max_gap_ns);
     if (!T_world_body) continue;
     entry.T_world_cam_gt = T_body_cam ? *T_world_body * *T_body_cam : *T_world_body;
+    ++covered;
+  }
+  if (covered == 0 && !sequence.entries.empty()) {
+    const std::string why =
+        "gives none of the " + std::to_string(sequence.entries.size()) + " frames a pose: the frames span " +
+        format_seconds(sequence.entries.front().t_ns, 3) + " .. " + format_seconds(sequence.entries.back().t_ns, 3) +
+        " s, its " + std::to_string(trajectory.size()) + " poses " +
+        (trajectory.empty() ? std::string("none")
+                            : format_seconds(trajectory.front().t_ns, 3) + " .. " +
+                                  format_seconds(trajectory.back().t_ns, 3) + " s") +
+        " (another sequence's ground truth, or stamps on another clock?)";
+    if (given) throw InputError(file.string(), why);
+    logger->warn("{}: {}; the sequence has no ground truth", file.string(), why);
   }
   sequence.info.groundtruth_file = file.string();
   sequence.info.groundtruth_poses = trajectory.size();

@@ -91,9 +91,12 @@ struct RecordedSequence {
 };
 
 // Ground truth for the entries: reads `file` and gives each entry the pose at its stamp, composed with
-// T_body_cam when the file holds body poses. Fills the info fields about ground truth.
+// T_body_cam when the file holds body poses. Fills the info fields about ground truth. A file that gives
+// no frame a pose (another sequence's, or stamps on another clock) is an InputError naming both time
+// spans when the user gave it (`given`), a warning when it is the dataset's own.
 void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
-                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config);
+                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
+                        const Logger& logger);
 
 // Median spacing of sorted stamps in ns (0 for fewer than two).
 TimeNs median_interval_ns(const std::vector<TimeNs>& stamps);
@@ -131,8 +134,13 @@ std::string exact(double value);
 
 // ---- writing --------------------------------------------------------------------------------------
 
-// Creates `root` (and parents); refuses an existing folder that is not empty.
-void create_output_folder(const std::filesystem::path& root);
+// Writers lay a sequence out in a staging folder beside `root` (root + ".partial") and rename it to
+// `root` once it is complete, so that a write that fails half-way never looks like a finished sequence.
+// begin: refuses a `root` that exists and is not an empty folder, removes a stale staging
+// folder (an earlier write that failed), creates the staging folder and returns it.
+std::filesystem::path begin_staged_folder(const std::filesystem::path& root);
+// Renames the staging folder to `root` (an empty folder there is replaced).
+void commit_staged_folder(const std::filesystem::path& staging, const std::filesystem::path& root);
 // Writes an image; InputError naming the file when OpenCV cannot.
 void write_image(const std::filesystem::path& file, const cv::Mat& image);
 

@@ -85,6 +85,8 @@ std::vector<ImuSample> read_imu_csv(const std::filesystem::path& file) {
 
 void attach_imu(RecordedSequence& sequence, const std::filesystem::path& file) {
   sequence.imu = read_imu_csv(file);
+  // An inertial rig without a sample could never initialise its IMU, and nothing would say why.
+  if (sequence.imu.empty()) throw InputError(file.string(), "lists no IMU samples (leave out imu0/, or load_imu off)");
   sequence.info.imu_file = file.string();
   sequence.info.imu_samples = sequence.imu.size();
   sequence.info.imu_rate_hz = mean_rate_hz(sequence.imu);
@@ -121,7 +123,7 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
                                                 "or Tbc) and there is no cam0/sensor.yaml with T_BS");
     }
     attach_groundtruth(sequence, config.groundtruth_file,
-                       config.groundtruth_in_body_frame ? T_body_cam0 : std::nullopt, config);
+                       config.groundtruth_in_body_frame ? T_body_cam0 : std::nullopt, config, true, logger);
     return;
   }
   std::vector<std::filesystem::path> candidates = {mav0 / "state_groundtruth_estimate0" / "data.csv",
@@ -136,7 +138,7 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
                    file.string());
       return;
     }
-    attach_groundtruth(sequence, file, T_body_cam0, config);
+    attach_groundtruth(sequence, file, T_body_cam0, config, false, logger);
     return;
   }
   logger->info("{}: no ground truth (no state_groundtruth_estimate0/ or mocap0/ data.csv; a ground-truth "

@@ -1,6 +1,7 @@
 // EuRoC writer: a mav0 folder with cameras, IMU, calibration and body ground truth.
 
 #include <fstream>
+#include <optional>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -74,8 +75,8 @@ struct EurocWriter::Files {
 };
 
 EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
-    : mav0_(root / "mav0"), rig_(rig), logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
-  create_output_folder(root);
+    : root_(root), staging_(begin_staged_folder(root)), mav0_(staging_ / "mav0"), rig_(rig),
+      logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
   const Eigen::Isometry3d T_body_cam0 = rig_.T_body_cam0.value_or(Eigen::Isometry3d::Identity());
   const char* kImageHeader = "#timestamp [ns],filename\n";
   std::filesystem::create_directories(mav0_ / "cam0" / "data");
@@ -102,14 +103,13 @@ EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig
 }
 
 EurocWriter::~EurocWriter() {
-  try {
-    close();
-  } catch (const std::exception& e) {
-    logger_->error("{}: closing the sequence failed: {}", mav0_.string(), e.what());
-  }
+  if (closed_) return;
+  logger_->warn("{}: the sequence was not completed ({} frames written); it is left there, not in {}",
+                staging_.string(), frames_, root_.string());
 }
 
 void EurocWriter::write_images(const SensorFrame& frame) {
+  // Both images are checked (and converted) before either is written.
   const auto gray = [&](const cv::Mat& image, const PinholeCamera& camera, const char* which) {
     if (image.cols != camera.width() || image.rows != camera.height()) {
       throw InputError(frame_name(frame), std::string(which) + " image size differs from the rig's camera");
@@ -122,20 +122,30 @@ void EurocWriter::write_images(const SensorFrame& frame) {
     cv::cvtColor(image, converted, cv::COLOR_BGR2GRAY);
     return converted;
   };
-  const std::string name = std::to_string(frame.t_ns) + ".png";
-  write_image(mav0_ / "cam0" / "data" / name, gray(frame.image, rig_.cam0, "left"));
-  files_->cam0 << frame.t_ns << ',' << name << '\n';
+  const cv::Mat left = gray(frame.image, rig_.cam0, "left");
+  cv::Mat right;
   if (rig_.cam1) {
     if (!frame.is_stereo()) throw InputError(frame_name(frame), "has no right image but the rig is stereo");
-    write_image(mav0_ / "cam1" / "data" / name, gray(frame.right, *rig_.cam1, "right"));
-    files_->cam1 << frame.t_ns << ',' << name << '\n';
+    right = gray(frame.right, *rig_.cam1, "right");
   }
+  const std::string name = std::to_string(frame.t_ns) + ".png";
+  write_image(mav0_ / "cam0" / "data" / name, left);
+  if (rig_.cam1) write_image(mav0_ / "cam1" / "data" / name, right);
+  files_->cam0 << frame.t_ns << ',' << name << '\n';
+  if (rig_.cam1) files_->cam1 << frame.t_ns << ',' << name << '\n';
 }
 
 void EurocWriter::write(const SensorFrame& frame) {
   FLEETSLAM_CHECK(!closed_, "write() after close()");
   if (frame.image.empty()) throw InputError(frame_name(frame), "has no image");
   if (frames_ > 0 && frame.t_ns <= last_t_ns_) throw InputError(frame_name(frame), "stamp does not increase");
+  if (rig_.imu) {
+    std::optional<TimeNs> last_imu = files_->any_imu ? std::optional<TimeNs>(files_->last_imu_t_ns) : std::nullopt;
+    for (const ImuSample& s : frame.imu) {
+      if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "IMU stamps do not increase");
+      last_imu = s.t_ns;
+    }
+  }
   write_images(frame);
   if (frame.has_depth() && !warned_depth_) logger_->warn("{}: depth maps dropped (EuRoC layout)", mav0_.string());
   warned_depth_ = warned_depth_ || frame.has_depth();
@@ -144,8 +154,7 @@ void EurocWriter::write(const SensorFrame& frame) {
     warned_imu_ = true;
   }
   if (rig_.imu) {
-    for (const ImuSample& s : frame.imu) {
-      if (files_->any_imu && s.t_ns <= files_->last_imu_t_ns) throw InputError(frame_name(frame), "IMU stamps do not increase");
+    for (const ImuSample& s : frame.imu) {  // their order was checked above
       files_->imu << s.t_ns << ',' << exact(s.gyro_radps.x()) << ',' << exact(s.gyro_radps.y()) << ','
                   << exact(s.gyro_radps.z()) << ',' << exact(s.accel_mps2.x()) << ',' << exact(s.accel_mps2.y())
                   << ',' << exact(s.accel_mps2.z()) << '\n';
@@ -168,10 +177,16 @@ void EurocWriter::close() {
     if (out->is_open()) out->close();
     if (out->fail()) throw InputError(mav0_.string(), "cannot write the lists");
   }
+  if (rig_.imu && !files_->any_imu) {
+    logger_->warn("{}: the rig has an IMU but no frame brought a sample: imu0/ left out", mav0_.string());
+    std::filesystem::remove_all(mav0_ / "imu0");
+  }
   if (!files_->body_poses.empty()) {
     std::filesystem::create_directories(mav0_ / "state_groundtruth_estimate0");
     write_trajectory(mav0_ / "state_groundtruth_estimate0" / "data.csv", files_->body_poses, TrajectoryFormat::kEuroc);
   }
+  commit_staged_folder(staging_, root_);
+  mav0_ = root_ / "mav0";
   logger_->info("{}: wrote {} {} frames", mav0_.string(), frames_, rig_.cam1 ? "stereo" : "monocular");
 }
 

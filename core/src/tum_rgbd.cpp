@@ -214,7 +214,7 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
                                          "body-to-camera transform (T_body_cam0: IMU.T_b_c1 or Tbc)");
     }
     attach_groundtruth(sequence, gt_file, config.groundtruth_in_body_frame ? sequence.rig.T_body_cam0 : std::nullopt,
-                       config);
+                       config, !config.groundtruth_file.empty(), logger);
   }
   if (config.load_imu && std::filesystem::exists(root / "accelerometer.txt", ec)) {
     attach_accelerometer(sequence, root / "accelerometer.txt");

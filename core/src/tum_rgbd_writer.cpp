@@ -86,23 +86,21 @@ struct TumRgbdWriter::Files {
 TumRgbdWriter::TumRgbdWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
     : root_(root), rig_(rig), logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
   if (!(rig_.depth_scale > 0.0)) throw InputError(root.string(), "the rig's depth scale must be positive");
-  create_output_folder(root_);
-  std::filesystem::create_directories(root_ / "rgb");
-  std::filesystem::create_directories(root_ / "depth");
-  write_orbslam_settings(root_ / kTumCameraFile, tum_camera_settings(rig_));
-  files_->rgb.open(root_ / "rgb.txt");
-  files_->depth.open(root_ / "depth.txt");
+  staging_ = begin_staged_folder(root_);
+  std::filesystem::create_directories(staging_ / "rgb");
+  std::filesystem::create_directories(staging_ / "depth");
+  write_orbslam_settings(staging_ / kTumCameraFile, tum_camera_settings(rig_));
+  files_->rgb.open(staging_ / "rgb.txt");
+  files_->depth.open(staging_ / "depth.txt");
   files_->rgb << "# color images\n# written by fleetslam\n# timestamp filename\n";
   files_->depth << "# depth maps\n# written by fleetslam\n# timestamp filename\n";
-  if (!files_->rgb || !files_->depth) throw InputError(root_.string(), "cannot write the image lists");
+  if (!files_->rgb || !files_->depth) throw InputError(staging_.string(), "cannot write the image lists");
 }
 
 TumRgbdWriter::~TumRgbdWriter() {
-  try {
-    close();
-  } catch (const std::exception& e) {
-    logger_->error("{}: closing the sequence failed: {}", root_.string(), e.what());
-  }
+  if (closed_) return;
+  logger_->warn("{}: the sequence was not completed ({} frames written); it is left there, not in {}",
+                staging_.string(), frames_, root_.string());
 }
 
 void TumRgbdWriter::write(const SensorFrame& frame) {
@@ -122,12 +120,12 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
   }
   last_imu_t_ns_ = last_imu;
   const std::string stamp = stamp_text(frame.t_ns);
-  write_image(root_ / "rgb" / (stamp + ".png"), frame.image);
-  write_image(root_ / "depth" / (stamp + ".png"), depth_to_raw(frame.depth_m, rig_.depth_scale, depth_out_of_range_));
+  write_image(staging_ / "rgb" / (stamp + ".png"), frame.image);
+  write_image(staging_ / "depth" / (stamp + ".png"), depth_to_raw(frame.depth_m, rig_.depth_scale, depth_out_of_range_));
   files_->rgb << stamp << " rgb/" << stamp << ".png\n";
   files_->depth << stamp << " depth/" << stamp << ".png\n";
   if (!frame.imu.empty() && !files_->accelerometer.is_open()) {
-    files_->accelerometer.open(root_ / "accelerometer.txt");
+    files_->accelerometer.open(staging_ / "accelerometer.txt");
     files_->accelerometer << "# accelerometer data\n# written by fleetslam\n# timestamp ax ay az\n";
   }
   for (const ImuSample& s : frame.imu) {
@@ -144,11 +142,12 @@ void TumRgbdWriter::close() {
   closed_ = true;
   for (std::ofstream* out : {&files_->rgb, &files_->depth, &files_->accelerometer}) {
     if (out->is_open()) out->close();
-    if (out->fail()) throw InputError(root_.string(), "cannot write the lists");
+    if (out->fail()) throw InputError(staging_.string(), "cannot write the lists");
   }
   if (!files_->groundtruth.empty()) {
-    write_trajectory(root_ / "groundtruth.txt", files_->groundtruth, TrajectoryFormat::kTum);
+    write_trajectory(staging_ / "groundtruth.txt", files_->groundtruth, TrajectoryFormat::kTum);
   }
+  commit_staged_folder(staging_, root_);
   if (depth_out_of_range_ > 0) {
     logger_->warn("{}: {} depth values beyond the 16-bit range written as 0 (no measurement)", root_.string(),
                   depth_out_of_range_);

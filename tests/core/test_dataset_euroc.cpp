@@ -180,6 +180,41 @@ TEST(Euroc, ColourFramesAreWrittenGrayAndStereoRigsNeedRightImages) {
   frames = make_frames(5);
   frames[2].image = cv::Mat(10, 10, CV_8UC1);
   expect_input_error([&] { write_sequence(dir / "size", frames); }, {"frame 2", "size"});
+  // A frame is checked whole before any of it is written: a bad right image or IMU stamps that go back
+  // leave no row of it in cam0/data.csv (or an image of it). The failed write stays in .partial.
+  frames = make_frames(5);
+  frames[2].right = cv::Mat(10, 10, CV_8UC1);
+  expect_input_error([&] { write_sequence(dir / "right", frames); }, {"frame 2", "right image size"});
+  frames = make_frames(5);
+  frames[3].imu.back().t_ns = frames[1].t_ns;
+  expect_input_error([&] { write_sequence(dir / "imu", frames); }, {"frame 3", "IMU stamps do not increase"});
+  for (const auto& [name, written] : {std::make_pair("right", 2), std::make_pair("imu", 3)}) {
+    const std::filesystem::path partial = dir / (std::string(name) + ".partial") / "mav0";
+    EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+    std::size_t rows = 0;
+    std::ifstream csv(partial / "cam0" / "data.csv");
+    for (std::string line; std::getline(csv, line);) rows += line.empty() || line[0] == '#' ? 0 : 1;
+    EXPECT_EQ(rows, static_cast<std::size_t>(written)) << name;
+    std::size_t images = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(partial / "cam0" / "data")) images += entry.is_regular_file();
+    EXPECT_EQ(images, static_cast<std::size_t>(written)) << name;
+  }
+}
+
+// A rig with an IMU whose frames bring no sample: imu0/ is left out, so the sequence reads back as a rig
+// without IMU; the reader refuses an IMU list without samples.
+TEST(Euroc, AnImuRigWithoutSamplesWritesNoImuFolder) {
+  TempDir dir;
+  write_sequence(dir / "seq", make_frames(6, true, false));
+  EXPECT_FALSE(std::filesystem::exists(dir / "seq" / "mav0" / "imu0"));
+  const auto source = open(dir / "seq");
+  EXPECT_FALSE(source->rig().imu.has_value());
+  EXPECT_EQ(source->rig().mode, SensorMode::kStereo);
+  write_sequence(dir / "inertial", make_frames(6));
+  const auto imu_csv = dir / "inertial" / "mav0" / "imu0" / "data.csv";
+  test::write_file(imu_csv, "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+                            "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n");
+  expect_input_error([&] { open(dir / "inertial"); }, {"imu0/data.csv", "lists no IMU samples"});
 }
 
 TEST(Euroc, CamOneRowsPastTheEndAndUnpairedRowsAreSkipped) {

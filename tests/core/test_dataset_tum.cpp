@@ -270,9 +270,8 @@ TEST(TumRgbd, GroundTruthIsInterpolatedOnlyBetweenCloseNeighbours) {
   EXPECT_NEAR(turned.angle(), 10.0 * M_PI / 180.0, 1e-9);
   EXPECT_NEAR(turned.axis().z(), 1.0, 1e-9);
   EXPECT_FALSE(read[3].T_world_cam_gt.has_value());  // outside the poses
-  config.max_groundtruth_gap_s = 0.02;                // 30 ms to the later pose is too far now
-  read = read_all(*open(dir.path(), config));
-  EXPECT_FALSE(read[4].T_world_cam_gt.has_value());
+  config.max_groundtruth_gap_s = 0.02;  // 30 ms to the later pose is too far now: no frame has a pose
+  expect_input_error([&] { open(dir.path(), config); }, {"gt.txt", "gives none of the", "frames a pose"});
 }
 
 TEST(TumRgbd, FreiburgDefaultsComeFromTheFolderName) {
@@ -366,6 +365,24 @@ TEST_F(TumRgbdBadInput, MalformedAndTruncatedLines) {
   expect_input_error([&] { open(dir.path()); }, {"rgb.txt", "lists no images"});
 }
 
+// Ground truth on another clock (here 100 s later) gives no frame a pose: an error when the user gave the
+// file, a warning (and no ground truth) when it is the sequence's own groundtruth.txt.
+TEST_F(TumRgbdBadInput, GroundTruthThatGivesNoFrameAPose) {
+  Trajectory shifted;
+  for (int i = 0; i < 11; ++i) shifted.push_back({stamp(i) + 100'000'000'000, Eigen::Isometry3d::Identity()});
+  write_trajectory(dir / "other.txt", shifted, TrajectoryFormat::kTum);
+  DatasetConfig config;
+  config.groundtruth_file = (dir / "other.txt").string();
+  config.load_images = false;
+  expect_input_error([&] { open(dir.path(), config); },
+                     {"other.txt", "gives none of the", "frames a pose", "another clock"});
+  std::filesystem::copy_file(dir / "other.txt", dir / "groundtruth.txt",
+                             std::filesystem::copy_options::overwrite_existing);
+  config.groundtruth_file.clear();
+  const auto source = open(dir.path(), config);
+  EXPECT_EQ(source->info().frames_with_groundtruth, 0u);
+}
+
 TEST_F(TumRgbdBadInput, NonMonotonicStamps) {
   test::replace_line(rgb_txt(), kHeaderLines + 5, format_seconds(stamp(1), 6) + " rgb/x.png");
   expect_input_error([&] { open(dir.path()); }, {rgb_line(4), "does not increase"});
@@ -453,7 +470,16 @@ TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {
   std::vector<SensorFrame> frames = make_frames(8);
   frames[1].depth_m = cv::Mat();
   expect_input_error([&] { write_sequence(dir / "a", frames); }, {"frame 1", "no depth map"});
+  // The failed write is left beside the folder it was for, never in it: nothing looks finished.
+  EXPECT_FALSE(std::filesystem::exists(dir / "a"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "a.partial" / "rgb.txt"));
+  write_sequence(dir / "a", make_frames(8));  // a new write replaces the stale one
+  EXPECT_FALSE(std::filesystem::exists(dir / "a.partial"));
+  EXPECT_EQ(open(dir / "a")->size(), 8u);
   expect_input_error([&] { write_sequence(dir / "a", make_frames(8)); }, {"not empty"});
+  std::filesystem::create_directories(dir / "empty");  // an empty folder is taken
+  write_sequence(dir / "empty/", make_frames(8));
+  EXPECT_EQ(open(dir / "empty")->size(), 8u);
   frames = make_frames(8);
   std::swap(frames[2].t_ns, frames[3].t_ns);
   expect_input_error([&] { write_sequence(dir / "b", frames); }, {"does not increase"});

@@ -63,15 +63,12 @@ std::vector<std::string> render_scenario(const sim::ScenarioConfig& world_config
   std::vector<std::size_t> robots;
   std::vector<std::unique_ptr<core::FrameSink>> sinks;
   std::vector<std::string> names;
+  std::vector<core::SensorRig> rigs;
   for (std::size_t i = 0; i < world.robot_count(); ++i) {
     const sim::RobotConfig& robot = world.robot_config(i);
     if (!robot.camera.enabled || !robot.camera.depth) continue;
-    const core::SensorRig rig = tum_rig(world.sensor_rig(i));
-    sinks.push_back(core::make_dataset_writer(dir / robot.name, core::DatasetFormat::kTumRgbd, rig, logger));
-    core::OrbSlamSettings settings;
-    settings.rig = rig;
-    settings.th_depth = kRgbdThDepth;
-    core::write_orbslam_settings(dir / robot.name / "orbslam_settings.yaml", settings);
+    rigs.push_back(tum_rig(world.sensor_rig(i)));
+    sinks.push_back(core::make_dataset_writer(dir / robot.name, core::DatasetFormat::kTumRgbd, rigs.back(), logger));
     robots.push_back(i);
     names.push_back(robot.name);
   }
@@ -82,7 +79,14 @@ std::vector<std::string> render_scenario(const sim::ScenarioConfig& world_config
       }
     }
   }
-  for (auto& sink : sinks) sink->close();
+  // The settings go into each finished sequence's folder (the writer makes it complete at close()).
+  for (std::size_t k = 0; k < sinks.size(); ++k) {
+    sinks[k]->close();
+    core::OrbSlamSettings settings;
+    settings.rig = rigs[k];
+    settings.th_depth = kRgbdThDepth;
+    core::write_orbslam_settings(dir / names[k] / "orbslam_settings.yaml", settings);
+  }
   return names;
 }
 

@@ -58,7 +58,11 @@ std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, Datas
 // Writes frames as a EuRoC mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
 // data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and
 // state_groundtruth_estimate0/data.csv (body poses, body = IMU frame) when frames carry poses.
-// Colour images are converted to gray; depth maps are dropped (with one warning).
+// Colour images are converted to gray; depth maps are dropped (with one warning). A rig with an IMU
+// whose frames brought no sample gets no imu0/ (with a warning): the reader refuses an empty IMU list.
+// A frame is checked whole before any of it is written. The sequence is written to root + ".partial"
+// and renamed to root by close(); a writer destroyed without close() (a write that failed) leaves the
+// .partial folder and says so.
 class EurocWriter final : public FrameSink {
  public:
   EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger);
@@ -71,7 +75,9 @@ class EurocWriter final : public FrameSink {
  private:
   struct Files;
   void write_images(const SensorFrame& frame);
-  std::filesystem::path mav0_;
+  std::filesystem::path root_;
+  std::filesystem::path staging_;  // where the sequence is written until close()
+  std::filesystem::path mav0_;     // staging_ / "mav0"
   SensorRig rig_;
   Logger logger_;
   std::unique_ptr<Files> files_;

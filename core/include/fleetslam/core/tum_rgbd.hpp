@@ -44,7 +44,9 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
 
 // Writes frames as a TUM RGB-D folder: rgb/ and depth/ PNGs (16-bit, raw = round(depth_m * scale)),
 // rgb.txt, depth.txt, groundtruth.txt (frames with poses), accelerometer.txt (frames with IMU
-// samples), camera.yaml. Every frame needs an image and a depth map.
+// samples), camera.yaml. Every frame needs an image and a depth map. The sequence is written to
+// root + ".partial" and renamed to root by close(); a writer destroyed without close() (a write that
+// failed) leaves the .partial folder and says so.
 class TumRgbdWriter final : public FrameSink {
  public:
   TumRgbdWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger);
@@ -57,6 +59,7 @@ class TumRgbdWriter final : public FrameSink {
  private:
   struct Files;
   std::filesystem::path root_;
+  std::filesystem::path staging_;  // where the sequence is written until close()
   SensorRig rig_;
   Logger logger_;
   std::unique_ptr<Files> files_;
