@@ -91,12 +91,13 @@ class ExponentialPolicy final : public KeyframePolicy {
     const double dt_s = core::ns_to_seconds(std::max<core::TimeNs>(0, c.t_ns - c.last_keyframe_t_ns));
     return dt_s / config_.time_scale_s;
   }
-  // A reference without points tells nothing about covisibility: treat it as lost (R_A = 1). Right after
-  // a map starts each point is seen by its one keyframe, so ORB-SLAM3's count (points seen by >= 2
-  // keyframes) is 0 and the second frame of every map becomes a keyframe: a second keyframe early, which
-  // is kept on purpose. Counting all the reference's points there instead (R_A 0.76 on fr1_rpy's frame 1)
-  // was measured worse: ATE 3.20 cm against 2.57 cm deterministic, 2.63 against 2.38 cm over 10
-  // threaded runs.
+  // A reference without points tells nothing about covisibility: treat it as lost (R_A = 1). R_A counts
+  // the reference's points seen by >= 2 keyframes (>= 3 once the map has 3), by keyframes, not by
+  // ORB-SLAM3's weighted observations (which the orbslam3 policy uses): right after a map starts each
+  // point is seen by its one keyframe, the count is 0, and the second frame of every map becomes a
+  // keyframe: a second keyframe early, kept on purpose. Counting all the reference's points there instead
+  // (R_A 0.76 on fr1_rpy's frame 1) was measured worse: ATE 3.20 cm against 2.57 cm deterministic, 2.63
+  // against 2.38 cm over 10 threaded runs.
   static double covisibility_cost(const KeyframeContext& c) {
     if (c.reference_points <= 0) return 1.0;
     const double kept = static_cast<double>(c.tracked_reference_points) / static_cast<double>(c.reference_points);
@@ -123,7 +124,7 @@ class Orbslam3Policy final : public KeyframePolicy {
 
   KeyframeDecision decide(const KeyframeContext& context) const override {
     const double tracked = context.tracked_inliers;
-    const double reference = context.reference_points;
+    const double reference = context.reference_points_weighted;
     const double ratio = reference_ratio(context);
     const bool need_close = needs_close_points(context);
     const int frames = context.frames_since_last_keyframe;

@@ -47,16 +47,6 @@ std::vector<std::size_t> free_depth_features(const Keyframe& kf) {
   return order;
 }
 
-// Observation weight as ORB-SLAM counts it: a feature with depth (a stereo observation) counts twice.
-int weighted_observations(const MapPoint& p, const Map& map) {
-  int weight = 0;
-  for (const auto& [kf_id, feature] : p.observations) {
-    const Keyframe* kf = map.keyframe(kf_id);
-    weight += kf != nullptr && kf->frame.has_depth(static_cast<std::size_t>(feature)) ? 2 : 1;
-  }
-  return weight;
-}
-
 }  // namespace
 
 KeyframeId LocalMapper::insert_keyframe(const Frame& frame, int component, bool initial, Map& map,
@@ -92,7 +82,7 @@ int LocalMapper::cull_recent_points(KeyframeId current, Map& map) {
     if (p == nullptr) continue;
     const KeyframeId age = current - p->first_keyframe;  // keyframes inserted since it was created
     if (p->found_ratio() < config_.cull_found_ratio ||
-        (age >= 2 && weighted_observations(*p, map) <= config_.cull_min_observations)) {
+        (age >= 2 && map.weighted_observations(*p) <= config_.cull_min_observations)) {
       map.erase_map_point(id);
       ++culled;
     } else if (age < 3) {

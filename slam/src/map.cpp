@@ -176,6 +176,15 @@ MapPoint* Map::point(MapPointId id) {
   return it == points_.end() ? nullptr : &it->second;
 }
 
+int Map::weighted_observations(const MapPoint& p) const {
+  int weight = 0;
+  for (const auto& [kf_id, feature] : p.observations) {
+    const Keyframe* kf = keyframe(kf_id);
+    weight += kf != nullptr && kf->frame.has_depth(static_cast<std::size_t>(feature)) ? 2 : 1;
+  }
+  return weight;
+}
+
 MapPointId Map::resolve(MapPointId id) const {
   // Replacement chains are short (a point is fused a few times at most); the bound guards cycles.
   for (int hops = 0; hops < 64 && id != kNoMapPoint; ++hops) {

@@ -173,7 +173,9 @@ void Tracker::decide_keyframe(Working& w, const Map& map, const TrackingInputs& 
   const int min_observations = c.keyframes_in_map <= 2 ? 2 : 3;
   for (MapPointId id : ref.frame.map_points) {
     const MapPoint* p = id == kNoMapPoint ? nullptr : map.point(id);
-    if (p == nullptr || static_cast<int>(p->observations.size()) < min_observations) continue;
+    if (p == nullptr) continue;
+    c.reference_points_weighted += map.weighted_observations(*p) >= min_observations ? 1 : 0;
+    if (static_cast<int>(p->observations.size()) < min_observations) continue;
     ++c.reference_points;
     c.tracked_reference_points += tracked.count(id) > 0 ? 1 : 0;
   }

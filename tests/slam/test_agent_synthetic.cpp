@@ -184,6 +184,34 @@ TEST(AgentSynthetic, LoggedDecisionsAreTheKeyframesInserted) {
   EXPECT_GT(decided_keyframes(inline_run), 10u);
 }
 
+// What the tracker feeds the policies about the reference keyframe, on the frame after a map starts:
+// each point of the first keyframe is seen by that keyframe alone, with depth. ORB-SLAM3's weighted count
+// (an observation with depth counts 2, at least 2 needed in a map of 1 or 2 keyframes) takes every one
+// of them; exponential's R_A counts keyframes, none, so R_A is 1.
+TEST(AgentSynthetic, TheReferenceCountsThePoliciesUseRightAfterAMapStarts) {
+  const std::vector<core::SensorFrame> frames(sequence(core::SensorMode::kRgbd).begin(),
+                                              sequence(core::SensorMode::kRgbd).begin() + 2);
+  AgentConfig config;
+  config.keyframes.policy = KeyframePolicyKind::kOrbslam3;
+  const AgentRun orbslam3 = run_agent(config, test::synthetic_rgbd_rig(), frames);
+  ASSERT_EQ(orbslam3.updates[0].new_keyframes.size(), 1u);
+  const std::size_t initial_points = orbslam3.updates[0].new_keyframes[0].point_ids.size();
+  ASSERT_GT(initial_points, 100u);
+  ASSERT_TRUE(orbslam3.updates[1].keyframe_decision.has_value());
+  const auto factor = [](const KeyframeDecision& d, const std::string& name) {
+    for (const auto& [n, v] : d.factors) {
+      if (n == name) return v;
+    }
+    ADD_FAILURE() << "no factor " << name;
+    return -1.0;
+  };
+  EXPECT_EQ(factor(*orbslam3.updates[1].keyframe_decision, "reference"), static_cast<double>(initial_points));
+  config.keyframes.policy = KeyframePolicyKind::kExponential;
+  const AgentRun exponential = run_agent(config, test::synthetic_rgbd_rig(), frames);
+  ASSERT_TRUE(exponential.updates[1].keyframe_decision.has_value());
+  EXPECT_EQ(factor(*exponential.updates[1].keyframe_decision, "R_A"), 1.0);
+}
+
 // A keyframe's own frame is the keyframe: the trajectory at a keyframe's time is the keyframe's pose,
 // moved by the local BA and loop corrections inline mapping applied right after it was inserted.
 TEST(AgentSynthetic, AKeyframesFrameFollowsItsKeyframe) {

@@ -31,6 +31,7 @@ KeyframeContext still_context(int frames) {
   c.tracked_inliers = 300;
   c.reference_points = 300;
   c.tracked_reference_points = 300;
+  c.reference_points_weighted = 300;
   c.reference_median_depth_m = 2.0;
   c.close_tracked = 250;
   c.close_untracked = 10;
@@ -231,12 +232,12 @@ TEST_P(Gates, WeakTrackingForcesAKeyframe) {
   KeyframeContext c = still_context(1);  // nothing else asks for one
   c.tracked_inliers = 49;
   c.tracked_reference_points = 49;
-  c.reference_points = 49;
+  c.reference_points = c.reference_points_weighted = 49;
   const KeyframeDecision d = policy->decide(c);
   const bool forced = GetParam() != KeyframePolicyKind::kOrbslam3;
   EXPECT_EQ(d.insert, forced) << d.reason;
   EXPECT_EQ(d.reason.find("weak tracking") != std::string::npos, forced) << d.reason;
-  c.tracked_inliers = c.tracked_reference_points = c.reference_points = 50;
+  c.tracked_inliers = c.tracked_reference_points = c.reference_points = c.reference_points_weighted = 50;
   EXPECT_FALSE(policy->decide(c).insert);
 }
 
@@ -279,7 +280,7 @@ TEST_P(Gates, WeakTrackingGateCanBeSwitchedOff) {
   KeyframePolicyConfig config = config_of(GetParam());
   config.weak_tracking_inliers = 0;
   KeyframeContext c = still_context(1);
-  c.tracked_inliers = c.tracked_reference_points = c.reference_points = 20;
+  c.tracked_inliers = c.tracked_reference_points = c.reference_points = c.reference_points_weighted = 20;
   EXPECT_FALSE(make_keyframe_policy(config)->decide(c).insert);
 }
 
@@ -377,7 +378,7 @@ TEST(Orbslam3Policy, WeakTrackingAgainstTheReferenceForcesAKeyframeWhileMappingI
   const auto policy = make_keyframe_policy(config_of(KeyframePolicyKind::kOrbslam3));
   KeyframeContext c = slowly_losing_points_while_mapping_busy(2);
   c.local_mapping_queue = 0;
-  c.reference_points = 1000;
+  c.reference_points_weighted = 1000;  // ORB-SLAM3's reference count
   c.tracked_inliers = 260;  // 0.26 of the reference: not c1c yet
   EXPECT_FALSE(policy->decide(c).insert);
   c.tracked_inliers = 240;  // 0.24 < 0.25

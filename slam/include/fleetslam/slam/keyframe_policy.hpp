@@ -46,8 +46,11 @@ struct KeyframeContext {
   int frames_since_relocalization = -1;  // 0 on the relocalised frame itself; -1: no relocalisation yet
   int keyframes_in_map = 0;
   int tracked_inliers = 0;              // map points tracked in the current frame (after pose optimisation)
-  int reference_points = 0;             // map points of the reference keyframe (with >= min observations)
+  int reference_points = 0;             // map points of the reference keyframe seen by >= 2 keyframes
+                                        // (>= 3 once the map has 3): exponential's R_A
   int tracked_reference_points = 0;     // of those, tracked in the current frame
+  int reference_points_weighted = 0;    // ORB-SLAM3's count (orbslam3): the reference's map points with
+                                        // >= 2 (>= 3) weighted observations (Map::weighted_observations)
   double translation_since_reference_m = 0.0;
   double rotation_since_reference_rad = 0.0;
   double reference_median_depth_m = 1.0;

@@ -125,6 +125,9 @@ class Map {
   Keyframe* keyframe(KeyframeId id);
   const MapPoint* point(MapPointId id) const;
   MapPoint* point(MapPointId id);
+  // ORB-SLAM's observation count of a point: an observation by a feature with depth (a stereo
+  // observation) counts 2, one without counts 1.
+  int weighted_observations(const MapPoint& p) const;
   // The live point that `id` became (itself, its replacement chain), or kNoMapPoint when it is gone.
   MapPointId resolve(MapPointId id) const;
   // World pose of a keyframe, following culled keyframes' parents; nullopt for unknown ids.
