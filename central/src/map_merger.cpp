@@ -13,6 +13,7 @@
 #include "fleetslam/central/kdtree.hpp"
 #include "fleetslam/core/error.hpp"
 #include "normal_test.hpp"
+#include "voxel_hash.hpp"
 
 namespace fleetslam::central {
 namespace {
@@ -309,6 +310,15 @@ void MapMerger::apply(const detail::Refinement& chosen, const char* hypothesis, 
   report.refined_overlap_points = chosen.refined_overlap_points;
 }
 
+double MapMerger::voxel_reach_m() const {
+  double smallest_m = std::min({config_.coarse.coarse_radius_m, config_.refine_radius_m, config_.sampling.voxel_size_m,
+                                config_.filter.radius_m});
+  for (const RegistrationConfig* r : {&config_.registration, &config_.local_registration}) {
+    if (r->voxel_size_m > 0.0) smallest_m = std::min(smallest_m, r->voxel_size_m);
+  }
+  return (detail::kMaxVoxelCoordinate - 1) * smallest_m;  // a voxel of margin for the +-1 neighbours
+}
+
 // Each robot's finite points in the world by its prior; the robots that can be merged, in input order.
 std::vector<std::size_t> MapMerger::place_by_priors(const std::vector<RobotCloud>& robots, MergeResult& result,
                                                     std::vector<core::PointCloud>& clouds_world) const {
@@ -328,6 +338,18 @@ std::vector<std::size_t> MapMerger::place_by_priors(const std::vector<RobotCloud
     clouds_world[i] = core::transformed(robots[i].cloud_robot, robots[i].T_world_robot_prior);
     report.non_finite_removed = core::remove_non_finite(clouds_world[i]);
     report.points = clouds_world[i].size();
+    // The voxel grids (overlap, sampling, filtering) index +-2^20 voxels around the world origin: a cloud
+    // reaching beyond would be folded into the border voxels without a word.
+    float farthest_m = 0.0f;
+    for (const Eigen::Vector3f& p : clouds_world[i].points) farthest_m = std::max(farthest_m, p.cwiseAbs().maxCoeff());
+    if (static_cast<double>(farthest_m) > voxel_reach_m()) {
+      report.status = fmt::format("too far from the world origin ({:.0f} m on an axis; the voxel grids reach {:.0f} m "
+                                  "with these voxel sizes: use a world frame near the robots): left out",
+                                  farthest_m, voxel_reach_m());
+      logger_->error("merge: robot {}: {}", report.robot_id, report.status);
+      clouds_world[i] = core::PointCloud();
+      continue;
+    }
     if (report.non_finite_removed > 0) {
       logger_->warn("merge: robot {}: {} non-finite points removed", report.robot_id, report.non_finite_removed);
     }

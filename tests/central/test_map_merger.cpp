@@ -309,6 +309,26 @@ TEST(MapMerger, ALaterComponentWaitsForTheInputItContinues) {
   EXPECT_TRUE(stranded.robots[1].placed);
 }
 
+// A prior 30 km from the world origin puts the cloud beyond the 2 cm sampling grid's reach (21 km): it
+// would be folded into the border voxels, so the robot is left out and the others merge as before.
+TEST(MapMerger, ACloudBeyondTheVoxelGridsReachIsLeftOut) {
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  std::vector<RobotCloud> robots = {robot(0, 0.0f, 4.0f, kPoseA, identity),
+                                    robot(1, 2.0f, 6.0f, kPoseB, synthetic::prior_error()),
+                                    robot(2, 0.0f, 3.0f, kPoseC, identity, 5000)};
+  robots[2].T_world_robot_prior.translation().x() += 30000.0;
+  const MergeResult result = MapMerger(MapMergerConfig{}).merge(robots);
+  EXPECT_EQ(result.robots[1].status, "fine matched");
+  const RobotMergeReport& far = result.robots[2];
+  EXPECT_FALSE(far.placed);
+  EXPECT_NE(far.status.find("too far from the world origin"), std::string::npos) << far.status;
+  EXPECT_NE(far.status.find("reach 20971 m"), std::string::npos) << far.status;
+  for (const Eigen::Vector3f& p : result.cloud_world.points) EXPECT_LT(p.norm(), 100.0f);
+  // Within reach (10 km) it is merged, by its prior (no overlap).
+  robots[2].T_world_robot_prior.translation().x() -= 20000.0;
+  EXPECT_TRUE(MapMerger(MapMergerConfig{}).merge(robots).robots[2].placed);
+}
+
 // Nobody overlaps anybody, and B2 (continuing B) comes before B: when no robot is placed by matching,
 // the fallback that keeps a prior takes B, not B2, which waits for it; B2 then starts from B's placement
 // (exact) instead of its own wrong prior.

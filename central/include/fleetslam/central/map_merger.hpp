@@ -42,7 +42,9 @@
 //
 // Bad input is handled per robot and never affects the others: non-finite points are removed and
 // counted, an empty cloud contributes nothing, a prior that is not a finite rigid transform leaves the
-// robot out, a robot that never overlaps keeps its prior, a registration that fails (or ends with too
+// robot out, so does a cloud reaching farther from the world origin than the voxel grids index
+// ((2^20 - 2) voxels of the smallest voxel size in the config: 21 km at the 2 cm sampling), a robot
+// that never overlaps keeps its prior, a registration that fails (or ends with too
 // few inliers) is discarded and the prior kept. Each case is logged and has its status in the report.
 
 #include <cstddef>
@@ -199,6 +201,8 @@ class MapMerger {
  private:
   std::vector<std::size_t> place_by_priors(const std::vector<RobotCloud>& robots, MergeResult& result,
                                            std::vector<core::PointCloud>& clouds_world) const;
+  // How far from the world origin (on each axis) the config's voxel grids reach.
+  double voxel_reach_m() const;
   bool match(std::size_t i, const std::vector<RobotCloud>& robots, const detail::MergedCloud& merged,
              core::PointCloud& cloud_world, MergeResult& result) const;
   // False when the overlap is no common surface (the robot waits as without overlap).
