@@ -138,6 +138,35 @@ TEST(OrbExtractor, EmptyFlatAndTinyImagesGiveNoFeatures) {
   }
 }
 
+// Textured images barely larger than the 19 px border (detection areas of 0 to 10 px): no crash, every
+// keypoint inside the area, one descriptor per keypoint, the same result twice; 64 px images find corners.
+TEST(OrbExtractor, TexturedImagesNearTheBorderSizeKeepFeaturesAndDescriptorsPaired) {
+  for (const auto& [width, height] : std::vector<std::pair<int, int>>{{38, 38}, {40, 40}, {41, 45}, {45, 40}, {48, 48},
+                                                                      {64, 64}, {200, 40}, {100, 64}, {64, 100}}) {
+    const cv::Mat image = test::to_8u(test::texture_float(width, height, 3));
+    const OrbFeatures f = extract(image);
+    EXPECT_EQ(static_cast<std::size_t>(f.descriptors.rows), f.keypoints.size()) << width << "x" << height;
+    for (const cv::KeyPoint& k : f.keypoints) {
+      EXPECT_GE(k.pt.x, 0.0f) << width << "x" << height;
+      EXPECT_GE(k.pt.y, 0.0f) << width << "x" << height;
+      EXPECT_LT(k.pt.x, static_cast<float>(width)) << width << "x" << height;
+      EXPECT_LT(k.pt.y, static_cast<float>(height)) << width << "x" << height;
+      EXPECT_GE(k.angle, 0.0f);
+      EXPECT_LT(k.angle, 360.0f);
+    }
+    const OrbFeatures again = extract(image);
+    ASSERT_EQ(again.keypoints.size(), f.keypoints.size());
+    if (!f.descriptors.empty()) {
+      EXPECT_EQ(cv::norm(again.descriptors, f.descriptors, cv::NORM_HAMMING), 0.0);
+    }
+    if (width >= 64 && height >= 64) {
+      EXPECT_FALSE(f.keypoints.empty()) << width << "x" << height;
+    }
+    ::testing::Test::RecordProperty("features_" + std::to_string(width) + "x" + std::to_string(height),
+                                    static_cast<int>(f.keypoints.size()));
+  }
+}
+
 TEST(OrbExtractor, LowContrastCellsFallBackToTheMinimumThreshold) {
   // Left half: full contrast. Right half: a two-tone version of the texture 16 gray levels apart, so that
   // its FAST scores fall between min_fast_threshold (7) and ini_fast_threshold (20).
