@@ -172,7 +172,8 @@ nlohmann::json metrics_json(const EvalOptions& o, const TimeAssociationConfig& s
               {"unit", to_string(rpe.config.unit)},
               {"translation_m", stats_json(rpe.translation_m)},
               {"rotation_deg", stats_json(rpe.rotation_rad, kDegreesPerRadian)},
-              {"rotation_rad", stats_json(rpe.rotation_rad)}};
+              {"rotation_rad", stats_json(rpe.rotation_rad)},
+              {"skipped_across_gaps", rpe.skipped_across_gaps}};
   j["ate_per_pair"] = per_pair_json(ate.t_ns, ate.errors_m, "error_m");
   return j;
 }
@@ -202,6 +203,11 @@ void print_report(const EvalOptions& o, const TrajectoryFile& gt, const Trajecto
   const std::string rpe_name = "RPE/" + number_text(rpe.config.delta) + " " + to_string(rpe.config.unit);
   print_stats((rpe_name + " trans [m]").c_str(), rpe.translation_m, 1.0, 6);
   print_stats((rpe_name + " rot [deg]").c_str(), rpe.rotation_rad, kDegreesPerRadian, 4);
+  if (rpe.skipped_across_gaps > 0) {
+    std::printf("  RPE left out %zu pair(s) whose partner lies across a gap in the stamps (a step over twice the "
+                "median)\n",
+                rpe.skipped_across_gaps);
+  }
 }
 
 void write_json(const fs::path& path, const nlohmann::json& j) {

@@ -70,17 +70,43 @@ std::size_t first_reaching(const std::vector<T>& values, std::size_t k, T delta)
   return static_cast<std::size_t>(std::lower_bound(begin, values.end(), values[k] + delta) - values.begin());
 }
 
-// For each pair k, the pair it is compared with (values.size() when none).
+// For each pair k, the pair it is compared with (pairs.size() when none), and how many pairs found a
+// partner only across a gap (left without one). A gap is a step between consecutive pairs' ground-truth
+// stamps longer than twice the median step (evaluate_rpe.py's bound on ground-truth time differences):
+// a drop-out of tracking or of the ground truth. In seconds, the partner must lie within that step of
+// k's stamp + delta (no pose near it otherwise); in metres, no gap may lie between them (the distance
+// travelled across a drop-out is unknown); in frames, the estimate's own pose delta later must be paired.
 std::vector<std::size_t> rpe_partners(const Trajectory& gt, const std::vector<PosePair>& pairs,
-                                      const RpeConfig& config) {
+                                      const RpeConfig& config, std::size_t& across_gaps) {
   const std::size_t n = pairs.size();
   std::vector<std::size_t> partner(n, n);
+  across_gaps = 0;
+  if (n < 2) return partner;
+  std::vector<TimeNs> stamps(n);
+  for (std::size_t k = 0; k < n; ++k) stamps[k] = gt[pairs[k].gt_index].t_ns;
+  std::vector<TimeNs> steps(n - 1);
+  for (std::size_t k = 0; k + 1 < n; ++k) steps[k] = stamps[k + 1] - stamps[k];
+  std::vector<TimeNs> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const TimeNs max_step = 2 * sorted[sorted.size() / 2];
+  std::vector<std::size_t> gaps_before(n, 0);  // steps longer than max_step among the first k
+  for (std::size_t k = 1; k < n; ++k) gaps_before[k] = gaps_before[k - 1] + (steps[k - 1] > max_step ? 1 : 0);
+
   if (config.unit == RpeUnit::kFrames) {
+    // The estimate's own frame delta later, when it is paired too (evaluate_rpe.py steps through the
+    // estimate's frames): a frame that is not paired is never replaced by a later one.
     const auto step = static_cast<std::size_t>(config.delta);
-    for (std::size_t k = 0; k + step < n; ++k) partner[k] = k + step;
+    std::vector<std::size_t> pair_of_est;  // est index -> pair (n: none)
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t e = pairs[k].est_index;
+      if (pair_of_est.size() <= e) pair_of_est.resize(e + 1, n);
+      pair_of_est[e] = k;
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t e = pairs[k].est_index + step;
+      if (e < pair_of_est.size()) partner[k] = pair_of_est[e];
+    }
   } else if (config.unit == RpeUnit::kSeconds) {
-    std::vector<TimeNs> stamps(n);
-    for (std::size_t k = 0; k < n; ++k) stamps[k] = gt[pairs[k].gt_index].t_ns;
     const TimeNs delta_ns = seconds_to_ns(config.delta);
     for (std::size_t k = 0; k < n; ++k) partner[k] = first_reaching(stamps, k, delta_ns);
   } else {
@@ -91,6 +117,18 @@ std::vector<std::size_t> rpe_partners(const Trajectory& gt, const std::vector<Po
                                             .norm();
     }
     for (std::size_t k = 0; k < n; ++k) partner[k] = first_reaching(travelled, k, config.delta);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t j = partner[k];
+    if (j >= n || j <= k) continue;
+    const bool across =
+        config.unit == RpeUnit::kSeconds ? stamps[j] - stamps[k] - seconds_to_ns(config.delta) > max_step
+        : config.unit == RpeUnit::kMeters ? gaps_before[j] != gaps_before[k]
+                                          : false;
+    if (across) {
+      partner[k] = n;
+      ++across_gaps;
+    }
   }
   return partner;
 }
@@ -281,7 +319,7 @@ RpeResult compute_rpe(const Trajectory& gt, const Trajectory& est, const std::ve
                   "an RPE frame delta must be an integer");
   RpeResult result;
   result.config = config;
-  const std::vector<std::size_t> partner = rpe_partners(gt, pairs, config);
+  const std::vector<std::size_t> partner = rpe_partners(gt, pairs, config, result.skipped_across_gaps);
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const std::size_t j = partner[k];
     if (j >= pairs.size()) continue;

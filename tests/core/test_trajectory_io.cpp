@@ -232,6 +232,17 @@ TEST(TrajectoryRead, KittiIsProjectedOntoRotations) {
             1e-15);
 }
 
+// KITTI rows are the 3x4 matrix row by row: a 90 degree yaw (not symmetric) tells rows from columns.
+TEST(TrajectoryRead, KittiRowsAreRowMajor) {
+  const fs::path path = write_file(test_dir() / "kitti_yaw.txt", "0 -1 0 1 1 0 0 2 0 0 1 3\n");
+  const Trajectory t = read_trajectory(path, TrajectoryFormat::kKitti);
+  ASSERT_EQ(t.size(), 1u);
+  Eigen::Matrix3d yaw;
+  yaw << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  EXPECT_LT((t[0].T_world_body.linear() - yaw).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_EQ(t[0].T_world_body.translation(), Eigen::Vector3d(1, 2, 3));
+}
+
 TEST(TrajectoryRead, DuplicateStampPolicies) {
   const fs::path path = write_file(test_dir() / "dup.txt",
                                    "1.0 1 0 0 0 0 0 1\n"

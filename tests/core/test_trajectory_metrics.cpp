@@ -191,6 +191,51 @@ TEST(Alignment, NoiseFreeIsExactAndAlignedTrajectoryLiesOnGroundTruth) {
   }
 }
 
+// A mirrored estimate (one axis flipped, then scaled) cannot be fitted by a rotation: the alignment must
+// stay a proper rotation (det +1; the SVD alone would return the reflection and report a tiny error), and
+// no other proper rotation, nor another scale, may fit better.
+TEST(Alignment, AMirroredEstimateGetsTheBestProperRotationAndScale) {
+  const Trajectory gt = synthetic_ground_truth(200, 10'000'000);
+  Trajectory est = gt;
+  for (StampedPose& p : est) p.T_world_body.translation() = Eigen::Vector3d(-0.7, 0.7, 0.7).cwiseProduct(p.T_world_body.translation());
+  const auto pairs = associate_by_index(gt, est);
+  const auto rmse_with = [&](const Eigen::Matrix3d& R, double scale) {
+    Eigen::Vector3d mean_gt = Eigen::Vector3d::Zero(), mean_est = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < gt.size(); ++i) {
+      mean_gt += gt[i].T_world_body.translation() / static_cast<double>(gt.size());
+      mean_est += est[i].T_world_body.translation() / static_cast<double>(gt.size());
+    }
+    double sum = 0.0;
+    for (std::size_t i = 0; i < gt.size(); ++i) {
+      const Eigen::Vector3d e = mean_gt + scale * R * (est[i].T_world_body.translation() - mean_est) -
+                                gt[i].T_world_body.translation();
+      sum += e.squaredNorm();
+    }
+    return std::sqrt(sum / static_cast<double>(gt.size()));
+  };
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (const AlignmentMode mode : {AlignmentMode::kSe3, AlignmentMode::kSim3}) {
+    const AteResult ate = compute_ate(gt, est, pairs, mode);
+    ASSERT_TRUE(ate.ok());
+    const Eigen::Matrix3d R = ate.alignment.T_gt_est.linear();
+    EXPECT_NEAR(R.determinant(), 1.0, 1e-9);
+    EXPECT_GT(ate.stats.rmse, 0.2) << "a reflection cannot be fitted";
+    const double scale = ate.alignment.scale;
+    EXPECT_NEAR(rmse_with(R, scale), ate.stats.rmse, 1e-9);
+    for (int k = 0; k < 2000; ++k) {  // random proper rotations, and the alignment's own nudged
+      const Eigen::Quaterniond q(n01(rng), n01(rng), n01(rng), n01(rng));
+      EXPECT_GE(rmse_with(q.normalized().toRotationMatrix(), scale), ate.stats.rmse - 1e-12);
+      const Eigen::Matrix3d nudged = Eigen::AngleAxisd(0.01, Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized()) * R;
+      EXPECT_GE(rmse_with(nudged, scale), ate.stats.rmse - 1e-12);
+    }
+    if (mode == AlignmentMode::kSim3) {
+      EXPECT_GT(rmse_with(R, scale * 1.01), ate.stats.rmse);
+      EXPECT_GT(rmse_with(R, scale * 0.99), ate.stats.rmse);
+    }
+  }
+}
+
 TEST(Alignment, NoneKeepsTheFrames) {
   const Trajectory gt{{0, pose({0, 0, 0}, {0, 0, 0})}, {1, pose({1, 0, 0}, {0, 0, 0})}};
   const Trajectory est{{0, pose({0, 3, 4}, {0, 0, 0})}, {1, pose({1, 0, 0}, {0, 0, 0})}};
@@ -328,6 +373,38 @@ TEST(Rpe, DeltaInMetresAndSecondsPicksTheFirstPoseReachingIt) {
       EXPECT_EQ(rpe.t_ns[k], gt[k].t_ns);
     }
   }
+}
+
+// A drop-out of the ground truth (2 s to 5 s) over an estimate that jumps 0.5 m across it: each segment
+// is exact, so every pair compared within a segment has zero error, and none may reach across the gap
+// (the old pairing compared the last pose before it with the first after, an error of 0.5 m).
+TEST(Rpe, PairsAcrossAGapInTheStampsAreLeftOut) {
+  Trajectory gt, est;
+  for (int i = 0; i <= 70; ++i) {  // 10 Hz, 0 .. 7 s
+    const TimeNs t_ns = 1'000'000'000 + static_cast<TimeNs>(i) * 100'000'000;
+    const Eigen::Isometry3d T = pose(Eigen::Vector3d(0.1 * i, 0.02 * i * i * 0.01, 0.0), Eigen::Vector3d(0.0, 0.0, 0.01 * i));
+    Eigen::Isometry3d T_est = T;
+    if (i > 25) T_est.translation().y() += 0.5;  // the jump, inside the gap
+    est.push_back({t_ns, T_est});
+    if (i <= 20 || i >= 50) gt.push_back({t_ns, T});
+  }
+  const auto pairs = associate_by_time(gt, est);
+  ASSERT_EQ(pairs.size(), 42u);
+  for (const RpeConfig config : {RpeConfig{1, RpeUnit::kFrames}, RpeConfig{3, RpeUnit::kFrames},
+                                 RpeConfig{0.5, RpeUnit::kSeconds}, RpeConfig{0.3, RpeUnit::kMeters}}) {
+    const RpeResult rpe = compute_rpe(gt, est, pairs, config);
+    ASSERT_GT(rpe.translation_m.count, 20u) << to_string(config.unit);
+    EXPECT_LT(rpe.translation_m.max, 1e-9) << to_string(config.unit) << " " << config.delta;
+    for (std::size_t k = 0; k < rpe.from_pair.size(); ++k) {
+      EXPECT_EQ(pairs[rpe.from_pair[k]].est_index <= 20, pairs[rpe.to_pair[k]].est_index <= 20);
+    }
+  }
+  // In frames, the estimate's pose a frame later is in the gap (not paired): no partner, not counted as
+  // skipped; in seconds and metres the first pose reaching the delta lies across the gap: skipped.
+  EXPECT_EQ(compute_rpe(gt, est, pairs, {1, RpeUnit::kFrames}).skipped_across_gaps, 0u);
+  EXPECT_EQ(compute_rpe(gt, est, pairs, {1, RpeUnit::kFrames}).translation_m.count, 40u);
+  EXPECT_EQ(compute_rpe(gt, est, pairs, {0.5, RpeUnit::kSeconds}).skipped_across_gaps, 5u);
+  EXPECT_GT(compute_rpe(gt, est, pairs, {0.3, RpeUnit::kMeters}).skipped_across_gaps, 0u);
 }
 
 TEST(Rpe, RotationErrorNearPiAndBadDeltas) {

@@ -128,10 +128,15 @@ struct RpeConfig {
 };
 
 // Over the sequence of pairs (in time order), pair k is compared with pair j:
-//   frames: j = k + delta;
+//   frames: the pair of the estimate's pose delta poses after k's (none when that pose is not paired),
+//           as evaluate_rpe.py steps through the estimate's poses;
 //   m:      the first j > k whose distance travelled along the ground truth (summed over the paired
 //           ground-truth positions) from k reaches delta;
 //   s:      the first j > k whose ground-truth stamp is at least delta seconds after k's.
+// A gap is a step between consecutive pairs' ground-truth stamps longer than twice the median step (a
+// drop-out of tracking or ground truth; evaluate_rpe.py's bound). A (k, j) found across one is left out
+// and counted in skipped_across_gaps: in seconds, j's stamp more than that step beyond k's + delta (no
+// pose near t + delta); in metres, a gap anywhere between them (the distance across it is unknown).
 // Each (k, j) gives E = (P_k^-1 P_j) (Q_k^-1 Q_j)^-1 (evaluate_rpe.py's order, above); the translational
 // error is |trans(E)| and the rotational error the angle of rot(E). est_scale multiplies the estimate's
 // relative translations (the sim3 alignment scale; rigid alignment does not change relative motion).
@@ -143,6 +148,7 @@ struct RpeResult {
   std::vector<double> rotation_errors_rad;
   ErrorStats translation_m;
   ErrorStats rotation_rad;
+  std::size_t skipped_across_gaps = 0;  // pairs whose partner lies across a gap (left out)
 };
 
 // Throws InvariantError on a non-positive delta or a fractional frame delta (callers validate input).
