@@ -113,7 +113,9 @@ TEST(RealTrajectories, KittiByIndex) {
   EXPECT_LT(se3.stats.rmse, 20.0);  // a 3.7 km loop
   const RpeResult rpe = compute_rpe(gt, est, pairs, {100.0, RpeUnit::kMeters});
   EXPECT_GT(rpe.translation_m.count, 1000u);
-  EXPECT_LT(rpe.translation_m.median, 5.0);
+  // Pinned: reading the rotations column-major leaves the ATE as it is but gives a median of 3.46 m.
+  EXPECT_NEAR(rpe.translation_m.median, 1.002127, 1e-5);
+  EXPECT_NEAR(rpe.rotation_rad.median * 180.0 / 3.14159265358979323846, 0.5352, 1e-3);
 }
 
 TEST(RealTrajectories, MonocularNeedsSim3) {
