@@ -241,7 +241,10 @@ core::SensorFrame World::Impl::render_frame(RobotRuntime& robot, std::size_t ind
   const int channels = camera.gray ? 1 : 3;
   const ImageNoiseDraw left_draw = robot.left_noise.next(t_ns);
   const DepthNoiseDraw depth_draw = camera.depth ? robot.depth_noise.next() : DepthNoiseDraw{};
-  const ImageNoiseDraw right_draw = stereo ? robot.right_noise.next(t_ns) : ImageNoiseDraw{};
+  ImageNoiseDraw right_draw = stereo ? robot.right_noise.next(t_ns) : ImageNoiseDraw{};
+  // A synchronised stereo head has one exposure: the right image takes the left's gain (its own pixel
+  // noise stays its own; its model's exposure process still runs, so its draws are as before).
+  right_draw.gain = left_draw.gain;
   struct Fields {
     ImageNoiseField left;
     DepthNoiseField depth;

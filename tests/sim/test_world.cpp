@@ -198,6 +198,33 @@ TEST(World, StereoDisparityEqualsFocalTimesBaselineOverDepth) {
   EXPECT_NEAR(left.x() - right.x(), rig.cam0.fx() * 0.12 / p_cam.z(), 0.3);
 }
 
+// A stereo head shares one exposure: with exposure changes on (fast, strong) and no pixel noise, the two
+// images of each frame keep the same brightness; independent gains made them differ by tens of percent.
+TEST(World, AStereoPairSharesItsExposure) {
+  const fs::path dir = write_scene("exposure", kWallScene);
+  RobotConfig robot = still_rig("pair", PoseConfig{0.0, 0.0, 1.25, 0, 0, 0});
+  robot.stereo.enabled = true;
+  robot.stereo.baseline_m = 0.02;
+  robot.camera.width = 160;
+  robot.camera.height = 120;
+  robot.camera.image_noise.enabled = true;
+  robot.camera.image_noise.sigma_intensity = 0.0;
+  robot.camera.image_noise.exposure_changes = true;
+  robot.camera.image_noise.exposure_sigma = 0.5;
+  robot.camera.image_noise.exposure_correlation_s = 0.05;
+  World world(scenario_in(dir, {robot}, 0.5), nullptr);
+  double spread = 0.0;  // how far the left image's brightness moved: the gains did change
+  double first_mean = -1.0;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    const double left = cv::mean(frames[0].image)[0];
+    const double right = cv::mean(frames[0].right)[0];
+    if (first_mean < 0.0) first_mean = left;
+    spread = std::max(spread, std::abs(left / first_mean - 1.0));
+    EXPECT_NEAR(left / right, 1.0, 0.03) << "t " << frames[0].t_ns;
+  }
+  EXPECT_GT(spread, 0.2);
+}
+
 TEST(World, ImuAtRestReadsGravityAndNoRotation) {
   const fs::path dir = write_scene("rest", kWallScene);
   RobotConfig robot;

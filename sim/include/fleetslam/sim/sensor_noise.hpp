@@ -13,7 +13,10 @@
 //    at grazing incidence (none when the edge probability is 1).
 //  - Image: additive Gaussian noise on 8-bit intensities, and optional slow exposure (gain) changes:
 //    out = saturate(round(gain * in + sigma_intensity * n)), log gain an Ornstein-Uhlenbeck process
-//    (stationary std exposure_sigma, time constant exposure_correlation_s) starting at 0.
+//    (stationary std exposure_sigma, time constant exposure_correlation_s) starting at 0. The noise is
+//    per channel of a colour image: a gray image made from it afterwards (the EuRoC export) sees about
+//    0.67 sigma_intensity (camera.gray applies it to the gray image itself). World gives a stereo
+//    pair's right image the left image's gain (one exposure per head) and pixel noise of its own.
 // Gaussian pixel noise is drawn from a 2^16-entry quantile table of N(0, 1) (tails cut at ~4.3 sigma),
 // indexed by 16-bit pieces of fast streams (wyrand) that one draw of the model's generator seeds, so a
 // model's generator advances one draw per image (plus the exposure process's). An image is drawn in
