@@ -101,9 +101,21 @@ TrajectoryFile read_input(const std::string& path, const TrajectoryReadOptions& 
 }
 
 // KITTI files have no time: their poses pair by index.
+// auto pairs by index when both files lack time (KITTI); a file with stamps against one without is
+// refused: index pairing would match poses of unrelated times unless the user says both start together.
 bool by_index(const EvalOptions& o, const TrajectoryFile& gt, const TrajectoryFile& est) {
   if (o.associate != "auto") return o.associate == "index";
-  return gt.format == TrajectoryFormat::kKitti || est.format == TrajectoryFormat::kKitti;
+  const bool gt_untimed = gt.format == TrajectoryFormat::kKitti;
+  const bool est_untimed = est.format == TrajectoryFormat::kKitti;
+  if (gt_untimed != est_untimed) {
+    const std::string& untimed = gt_untimed ? o.gt_path : o.est_path;
+    const std::string& timed = gt_untimed ? o.est_path : o.gt_path;
+    throw InputError(untimed, "has no time stamps (KITTI) and " + timed + " has (" +
+                                  to_string(gt_untimed ? est.format : gt.format) +
+                                  "): they cannot be paired by time; --associate index pairs them by position in "
+                                  "the files, if both start at the same frame");
+  }
+  return gt_untimed;
 }
 
 // Refuses results that would be meaningless, naming the estimate file.

@@ -404,6 +404,15 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   if (!o.central_config.empty()) {
     throw InputError("--central-config", "needs --split: without it no central unit runs");
   }
+  // The map is saved after the whole run: a folder that is not there is said now, not after it.
+  if (!o.save_map.empty()) {
+    const fs::path folder = fs::path(o.save_map).parent_path();
+    std::error_code ec;
+    if (!folder.empty() && !fs::is_directory(folder, ec)) {
+      throw InputError(o.save_map, "the folder " + folder.string() + " does not exist (--save-map)");
+    }
+    if (fs::is_directory(o.save_map, ec)) throw InputError(o.save_map, "is a folder; --save-map takes a file name");
+  }
 
   slam::AgentConfig without_map = config;  // the map is loaded below, timed (reported only)
   without_map.load_map.clear();
@@ -418,6 +427,11 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   remove_earlier_outputs(out, logger);
   write_text_file(out / "config.yaml", core::config_to_yaml(config));
   RunResult run = run_agent(agent, *source, logger);
+  if (run.frames == 0 && !run.stopped_at) {
+    throw InputError(o.dataset, "no frame could be read: all " + std::to_string(source->unreadable_frames().size()) +
+                                    " selected frame(s) were unreadable and skipped (--skip-unreadable); the "
+                                    "calibration may not fit the images");
+  }
   // A map that cannot be saved costs the run nothing else: the other outputs are written, then the error
   // is raised.
   std::optional<double> save_s;
@@ -462,6 +476,11 @@ void run_replay(const ReplayOptions& o, const GlobalOptions& global) {
   }
   if (save_error) metrics["saved_map"] = {{"file", o.save_map}, {"error", save_error->what()}};
   std::optional<core::AteResult> ate;
+  if (run.per_frame_groundtruth.empty() && !source->info().groundtruth_file.empty()) {
+    logger->warn("no ATE: {} gives none of the {} replayed frame(s) a pose (it covers other frames of the "
+                 "sequence: see --max-frames)",
+                 source->info().groundtruth_file, run.frames);
+  }
   if (!run.per_frame_groundtruth.empty()) {
     core::write_trajectory(out / "groundtruth.txt", run.per_frame_groundtruth, core::TrajectoryFormat::kTum);
     std::string gt_source;

@@ -160,6 +160,14 @@ TimeNs parse_tum_stamp(std::string_view field, const std::string& where, bool na
 }
 
 TimeNs parse_euroc_stamp(std::string_view field, const std::string& where) {
+  // Integer nanoseconds; a fraction other than zeros ("1403715274312143104.0000000000" occurs) means the
+  // stamps are seconds, as in a TUM file read as EuRoC.
+  const auto dot = field.find('.');
+  if (dot != std::string_view::npos && field.find_first_not_of('0', dot + 1) != std::string_view::npos) {
+    throw InputError(where, "timestamp '" + std::string(field) +
+                                "' has a fraction: EuRoC stamps are integer nanoseconds (is this a TUM file? "
+                                "stamps in seconds, quaternion last)");
+  }
   const auto t_ns = parse_nanoseconds(field);
   if (!t_ns) throw InputError(where, "bad nanosecond timestamp '" + std::string(field) + "'");
   return *t_ns;

@@ -38,14 +38,28 @@ KeyframePolicyConfig AgentConfig::default_keyframes() {
 namespace {
 
 // The rig as the front end should use it: the sensor mode the config asks for.
+// Monocular rigs are refused: the agent starts its maps from depth (RGB-D or stereo), and a monocular
+// sequence would run to its end with every frame "not initialised".
 core::SensorRig rig_for(const AgentConfig& config, core::SensorRig rig) {
+  const std::string was = core::to_string(rig.mode);
   switch (config.sensor) {
     case AgentSensor::kRig: break;
-    case AgentSensor::kRgbd: rig.mode = core::SensorMode::kRgbd; break;
+    case AgentSensor::kRgbd:
+      if (rig.mode != core::SensorMode::kRgbd && !(rig.bf > 0.0)) {
+        throw InputError("sensor", "rgbd needs depth images, and this sequence's rig is " + was +
+                                       " (no depth, no virtual baseline bf)");
+      }
+      rig.mode = core::SensorMode::kRgbd;
+      break;
     case AgentSensor::kStereo:
-      if (!rig.cam1) throw InputError("sensor", "stereo needs a rig with a second camera (cam1)");
+      if (!rig.cam1) throw InputError("sensor", "stereo needs a rig with a second camera (cam1); this one is " + was);
       rig.mode = core::SensorMode::kStereo;
       break;
+  }
+  if (rig.mode == core::SensorMode::kMonocular || rig.mode == core::SensorMode::kMonoInertial) {
+    throw InputError("sensor rig", "the rig is " + core::to_string(rig.mode) +
+                                       " (one camera, no depth): the agent runs RGB-D or stereo; give a sequence "
+                                       "with depth images or a second camera");
   }
   return rig;
 }

@@ -311,6 +311,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"tum_trailing_comma", kTum, "1.0,0,0,0,0,0,0,1,\n", 1, "empty field"},
         BadInput{"euroc_short", kEuroc, "#h\n100,0,0,0,1,0,0\n", 2, "wrong number of columns"},
         BadInput{"euroc_fraction", kEuroc, "100,0,0,0,1,0,0,0\n1x0,0,0,0,1,0,0,0\n", 2, "bad nanosecond"},
+        // A TUM file read as EuRoC: seconds with a fraction (zeros alone are accepted, as in the EuRoC excerpt).
+        BadInput{"euroc_seconds", kEuroc, "100.000,0,0,0,1,0,0,0\n1305031102.175304 1.3 0.6 1.6 0.6 0.6 -0.3 -0.3\n", 2,
+                 "has a fraction: EuRoC stamps are integer nanoseconds"},
         BadInput{"euroc_extra_nan", kEuroc, "100,0,0,0,1,0,0,0,nan\n", 1, "not finite"},
         BadInput{"euroc_zero_quaternion", kEuroc, "100,0,0,0,0,0,0,0\n", 1, "zero-norm"},
         BadInput{"euroc_repeated", kEuroc, "100,0,0,0,1,0,0,0\n100,0,0,0,1,0,0,0\n", 2, "repeated"},

@@ -143,6 +143,15 @@ TEST(EvalCli, KittiPairsByIndexAndOffsetShiftsTheEstimate) {
   r = run_in(dir, "eval --gt gt.kitti --est est.kitti --rpe-delta 500 --out k");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("no two paired poses are 500 frames apart"), std::string::npos) << r.output;
+  // A stamped file against an unstamped one pairs only when asked to (by index): poses of unrelated
+  // times were paired with a warning and an ATE reported.
+  core::write_trajectory(dir / "stamped.tum", gt, TrajectoryFormat::kTum);
+  r = run_in(dir, "eval --gt stamped.tum --est est.kitti --out m");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("est.kitti: has no time stamps (KITTI) and stamped.tum has (tum)"), std::string::npos)
+      << r.output;
+  r = run_in(dir, "eval --gt stamped.tum --est est.kitti --associate index --out m");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
   // An estimate stamped 1 s late pairs only with --offset -1.
   Trajectory late = gt;
   for (auto& p : late) p.t_ns += 1'000'000'000;

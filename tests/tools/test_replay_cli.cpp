@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -308,14 +309,21 @@ TEST(ReplayCli, BadMapFileEndsWithOneLine) {
   EXPECT_FALSE(fs::exists(reused / "merge.json"));
   EXPECT_TRUE(fs::exists(reused / "notes.txt"));
   EXPECT_TRUE(fs::exists(reused / "metrics.json"));
-  // A map that cannot be written (its folder is a file) fails the command, but the run's other outputs
-  // are written first.
+  // A map whose folder is not there (here a file) is refused before the run: nothing is written.
   std::ofstream(dir / "a_file") << "x";
   const fs::path unsaved = dir / "unsaved";
   r = run("-q replay '" + kTum.string() + "' --max-frames 5 --save-map '" + (dir / "a_file" / "m.fsmap").string() +
           "' --out '" + unsaved.string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find("m.fsmap"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("does not exist (--save-map)"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(unsaved));
+  // A map that cannot be written (a name too long for the file system) fails the command, but the run's
+  // other outputs are written first.
+  const std::string long_name = std::string(300, 'm') + ".fsmap";
+  r = run("-q replay '" + kTum.string() + "' --max-frames 5 --save-map '" + (dir / long_name).string() +
+          "' --out '" + unsaved.string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("mmm.fsmap"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("the map was not saved"), std::string::npos) << r.output;
   EXPECT_EQ(core::read_trajectory(unsaved / "trajectory.txt").size(), 5u);
   const nlohmann::json metrics = nlohmann::json::parse(read_text(unsaved / "metrics.json"));
@@ -419,6 +427,65 @@ TEST(ReplayCli, UnreadableFrameStopsTheRunButKeepsWhatCameBeforeItOrIsSkipped) {
   ASSERT_FALSE(absent["skipped_rows"].empty());
   EXPECT_NE(absent["skipped_rows"].dump().find("rgb.txt:8"), std::string::npos) << absent["skipped_rows"].dump();
   EXPECT_EQ(absent["unreadable_frames_skipped"].size(), 1u);
+}
+
+// A run that could only end empty-handed is refused, or says why it has no ATE.
+TEST(ReplayCli, MonocularRigsUnreadableRunsAndGroundTruthOutsideTheReplayAreSaid) {
+  const fs::path dir = test_dir();
+  // A monocular EuRoC sequence (one camera, no depth): the agent would never start a map.
+  core::SensorRig rig;
+  rig.mode = core::SensorMode::kMonocular;
+  rig.cam0 = core::PinholeCamera(64, 48, 50.0, 50.0, 31.5, 23.5);
+  rig.fps = 20.0;
+  {
+    core::EurocWriter writer(dir / "mono", rig, nullptr);
+    for (int i = 0; i < 3; ++i) {
+      core::SensorFrame frame;
+      frame.sequence = i;
+      frame.t_ns = 1'000'000'000 + i * 50'000'000;
+      frame.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(40 * i));
+      writer.write(frame);
+    }
+    writer.close();
+  }
+  RunResult r = run("-q replay '" + (dir / "mono").string() + "' --out '" + (dir / "mono_run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("the agent runs RGB-D or stereo"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "mono_run"));
+  r = run("-q replay '" + (dir / "mono").string() + "' --sensor rgbd --out '" + (dir / "mono_run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("rgbd needs depth images"), std::string::npos) << r.output;
+
+  if (!fs::exists(kTum)) GTEST_SKIP() << "no TUM excerpt at " << kTum << " (the checks above ran)";
+  // Every frame unreadable and skipped: nothing was replayed.
+  const fs::path sequence = dir / "unreadable";
+  copy_tum_start(sequence, 4);
+  for (int row = 0; row < 4; ++row) std::ofstream(sequence / tum_image(sequence / "rgb.txt", row), std::ios::trunc) << "x";
+  r = run("-q replay '" + sequence.string() + "' --calibration '" + (kData / "calib" / "TUM1.yaml").string() +
+          "' --skip-unreadable --out '" + (dir / "unreadable_run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no frame could be read"), std::string::npos) << r.output;
+  // Ground truth that starts after the replayed frames: no ATE, and a warning saying why.
+  const fs::path late_gt = dir / "late_groundtruth.txt";
+  core::Trajectory gt = core::read_trajectory(kTum / "groundtruth.txt");
+  core::TimeNs first_frame_ns = 0;
+  {
+    std::ifstream rgb(kTum / "rgb.txt");
+    for (std::string line; std::getline(rgb, line);) {
+      if (line.empty() || line[0] == '#') continue;
+      first_frame_ns = static_cast<core::TimeNs>(std::llround(std::stod(line.substr(0, line.find(' '))) * 1e9));
+      break;
+    }
+  }
+  const core::TimeNs t_cut = first_frame_ns + 3'000'000'000;  // 3 s after the first frame: after frame 10
+  gt.erase(std::remove_if(gt.begin(), gt.end(), [&](const core::StampedPose& p) { return p.t_ns < t_cut; }), gt.end());
+  core::write_trajectory(late_gt, gt, core::TrajectoryFormat::kTum);
+  r = run("-q replay '" + kTum.string() + "' --calibration '" + (kData / "calib" / "TUM1.yaml").string() +
+          "' --groundtruth '" + late_gt.string() + "' --max-frames 10 --out '" + (dir / "late_run").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no ATE: " + late_gt.string() + " gives none of the 10 replayed frame(s) a pose"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(ReplayCli, BadInputEndsWithOneClearLine) {

@@ -92,6 +92,11 @@ TEST(RunCli, ThreadedRunTracksEveryFrameOfEveryRobot) {
     ASSERT_EQ(estimated.size(), 90u) << name;
     for (std::size_t i = 1; i < estimated.size(); ++i) EXPECT_LT(estimated[i - 1].t_ns, estimated[i].t_ns) << name;
   }
+  // The effective scenario names its scene by an absolute path, so it runs again from the output folder
+  // (a relative one was looked for beside the written file).
+  const runner::RunScenarioConfig again = runner::load_run_scenario(out / "scenario.yaml");
+  EXPECT_TRUE(fs::path(again.world.scene).is_absolute()) << again.world.scene;
+  EXPECT_TRUE(fs::exists(again.world.scene_path())) << again.world.scene_path();
 }
 
 // A criterion that cannot hold fails the run: exit 1, one line naming it, and the verdict in the outputs.

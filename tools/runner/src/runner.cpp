@@ -260,7 +260,10 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   const std::size_t removed = remove_earlier_outputs(out);
   const core::Logger logger = with_file_sink(logger_, out / "run.log");
   if (removed > 0) logger->info("removed {} output file(s) of an earlier run from {}", removed, out.string());
-  write_text_file(out / "scenario.yaml", core::config_to_yaml(config_));
+  // The effective scenario runs again from the output folder: its scene path is absolute.
+  RunScenarioConfig effective = config_;
+  effective.world.scene = fs::absolute(config_.world.scene_path()).lexically_normal().string();
+  write_text_file(out / "scenario.yaml", core::config_to_yaml(effective));
 
   sim::World world(config_.world, logger);
   central::Server server(config_.central, logger);
