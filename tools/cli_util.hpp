@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -35,6 +36,25 @@ using runner::loop_rejections_json;
 using runner::remove_files_named;
 using runner::timing_stats_json;
 using runner::write_text_file;
+
+// Whole numbers at least `min` (0 or 1 in practice), with a message that says so: CLI11's PositiveNumber
+// and NonNegativeNumber print their range as "0.000000 to 1797693134862315708...".
+inline CLI::Validator whole_number_at_least(long long min) {
+  return CLI::Validator(
+      [min](std::string& text) -> std::string {
+        std::size_t used = 0;
+        long long value = 0;
+        try {
+          value = std::stoll(text, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used == 0 || used != text.size()) return "must be a whole number, got '" + text + "'";
+        if (value < min) return "must be at least " + std::to_string(min) + ", got " + text;
+        return std::string();
+      },
+      min > 0 ? "POSITIVE" : "NONNEGATIVE");
+}
 
 // The config's defaults overridden by `file` (every key checked; none when `file` is empty).
 template <class Config>

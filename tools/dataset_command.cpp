@@ -245,9 +245,9 @@ void add_dataset_command(CLI::App& app, const GlobalOptions& global) {
           },
           "{tum_rgbd,tum,euroc}"));
   convert->add_option("--out", options->out, "Output folder (new or empty)")->required();
-  convert->add_option("--start", options->start, "First frame index")->check(CLI::NonNegativeNumber);
+  convert->add_option("--start", options->start, "First frame index")->check(whole_number_at_least(0));
   convert->add_option("--stop", options->stop, "One past the last frame index (-1: to the end)");
-  convert->add_option("--stride", options->stride, "Keep every n-th frame")->check(CLI::PositiveNumber);
+  convert->add_option("--stride", options->stride, "Keep every n-th frame")->check(whole_number_at_least(1));
   convert->add_flag("--skip-unreadable", options->skip_unreadable, "Skip unreadable frames instead of stopping");
   convert->callback([options, &global] { run_convert(*options, global); });
 }

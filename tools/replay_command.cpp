@@ -536,7 +536,7 @@ void add_replay_command(CLI::App& app, const GlobalOptions& global) {
                 "calibration's body-to-camera transform");
   cmd->add_option("--out", options->out, "Output folder")->capture_default_str();
   cmd->add_option("--max-frames", options->max_frames, "Process at most this many frames")
-      ->check(CLI::NonNegativeNumber);
+      ->check(whole_number_at_least(0));
   cmd->add_flag("--skip-unreadable", options->skip_unreadable,
                 "Skip a frame whose image is missing (dropped while the lists are read: skipped_rows in "
                 "metrics.json) or cannot be decoded (unreadable_frames_skipped) instead of stopping there");

@@ -238,7 +238,7 @@ void add_vocab_command(CLI::App& app, const GlobalOptions& global) {
   train->add_option("--levels", options->levels, "Depth levels L")->capture_default_str();
   train->add_option("--features", options->features, "ORB features per image")->capture_default_str()->check(CLI::Range(10, 100000));
   train->add_option("--max-images", options->max_images, "Use at most N images: every ceil(total / N)-th (-1: all)");
-  train->add_option("--seed", options->seed, "Seed of the k-means++ seeding")->capture_default_str()->check(CLI::NonNegativeNumber);
+  train->add_option("--seed", options->seed, "Seed of the k-means++ seeding")->capture_default_str()->check(whole_number_at_least(0));
   train->callback([options, &global] { run_train(*options, global); });
 
   CLI::App* info = vocab->add_subcommand("info", "k, levels, nodes, words and training images of a vocabulary file");

@@ -224,6 +224,13 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("no frame to convert from index 100000 on"), std::string::npos) << result.err;
   EXPECT_FALSE(fs::exists(dir_ / "beyond")) << "nothing selected: no empty sequence laid out";
+  // Whole-number options say what they take (CLI11's own check printed a range of 300 digits).
+  result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "stride") + " --stride 0");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--stride: must be at least 1, got 0"), std::string::npos) << result.err;
+  result = run("dataset convert " + quoted(kEuroc) + " --to euroc --out " + quoted(dir_ / "stride") + " --start 1.5");
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--start: must be a whole number, got '1.5'"), std::string::npos) << result.err;
 }
 
 }  // namespace
