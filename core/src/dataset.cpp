@@ -36,7 +36,10 @@ double DatasetInfo::rate_hz() const {
 
 DatasetFormat detect_dataset_format(const std::filesystem::path& root) {
   std::error_code ec;
-  if (!std::filesystem::is_directory(root, ec)) throw InputError(root.string(), "no such folder");
+  if (!std::filesystem::is_directory(root, ec)) {
+    throw InputError(root.string(), std::filesystem::exists(root, ec) ? "is a file; give the sequence's folder"
+                                                                       : "no such folder");
+  }
   if (std::filesystem::exists(root / "rgb.txt", ec)) return DatasetFormat::kTumRgbd;
   for (const std::filesystem::path& mav0 : {root / "mav0", root}) {
     if (!std::filesystem::is_directory(mav0 / "cam0", ec)) continue;

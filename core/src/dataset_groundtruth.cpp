@@ -37,7 +37,10 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
                         const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
                         const Logger& logger) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) throw InputError(file.string(), "missing ground-truth file");
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    throw InputError(file.string(), std::filesystem::is_directory(file, ec) ? "is a folder; give the ground-truth file"
+                                                                            : "missing ground-truth file");
+  }
   // Real ground-truth files repeat stamps now and then; the TUM tools keep the last pose of a stamp.
   TrajectoryReadOptions options;
   options.duplicate_stamps = DuplicateStamps::kKeepLast;

@@ -135,7 +135,10 @@ SensorRig read_euroc_rig(const std::filesystem::path& mav0, bool stereo, bool in
 
 std::filesystem::path find_mav0(const std::filesystem::path& root) {
   std::error_code ec;
-  if (!std::filesystem::is_directory(root, ec)) throw InputError(root.string(), "no such folder");
+  if (!std::filesystem::is_directory(root, ec)) {
+    throw InputError(root.string(), std::filesystem::exists(root, ec) ? "is a file; give the sequence's folder"
+                                                                       : "no such folder");
+  }
   if (std::filesystem::is_directory(root / "mav0", ec)) return root / "mav0";
   if (std::filesystem::is_directory(root / "cam0", ec)) return root;
   throw InputError(root.string(), "not a EuRoC/TUM-VI sequence (no mav0/ or cam0/ folder)");

@@ -184,7 +184,10 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
                                            Logger logger) {
   logger = or_null(std::move(logger));
   std::error_code ec;
-  if (!std::filesystem::is_directory(root, ec)) throw InputError(root.string(), "no such folder");
+  if (!std::filesystem::is_directory(root, ec)) {
+    throw InputError(root.string(), std::filesystem::exists(root, ec) ? "is a file; give the sequence's folder"
+                                                                       : "no such folder");
+  }
   RecordedSequence sequence;
   sequence.info.format = DatasetFormat::kTumRgbd;
   sequence.info.root = root;

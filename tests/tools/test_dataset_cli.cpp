@@ -202,6 +202,13 @@ TEST_F(DatasetCli, BadRequestsFailWithOneClearLine) {
   result = run("dataset info " + quoted(dir_ / "nowhere"));
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("nowhere: no such folder"), std::string::npos) << result.err;
+  std::ofstream(dir_ / "a_file") << "x";
+  result = run("dataset info " + quoted(dir_ / "a_file"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("a_file: is a file; give the sequence's folder"), std::string::npos) << result.err;
+  result = run("dataset info " + quoted(kEuroc) + " --groundtruth " + quoted(dir_));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("is a folder; give the ground-truth file"), std::string::npos) << result.err;
 
   fs::create_directories(dir_ / "full");
   std::ofstream(dir_ / "full" / "file") << "x";
