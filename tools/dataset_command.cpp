@@ -164,12 +164,18 @@ void run_info(const DatasetOptions& options, const GlobalOptions& global) {
   if (options.check) j["check"] = check_frames(options, logger);
   if (options.json) {
     std::cout << j.dump(2) << "\n";
-    return;
+  } else {
+    print_info(j, std::cout);
+    if (options.check) {
+      std::cout << "check:        " << j["check"]["decoded_frames"] << " frames decoded, "
+                << j["check"]["unreadable_frames"] << " unreadable\n";
+    }
   }
-  print_info(j, std::cout);
-  if (options.check) {
-    std::cout << "check:        " << j["check"]["decoded_frames"] << " frames decoded, "
-              << j["check"]["unreadable_frames"] << " unreadable\n";
+  // A check that found unreadable frames fails (exit 1), so that scripts can tell.
+  if (options.check && j["check"]["unreadable_frames"].get<std::size_t>() > 0) {
+    throw CriteriaFailed("dataset check failed: " + std::to_string(j["check"]["unreadable_frames"].get<std::size_t>()) +
+                         " of " + std::to_string(source->size()) + " frame(s) of " + options.path +
+                         " cannot be decoded (or do not fit the calibration)");
   }
 }
 
@@ -229,7 +235,7 @@ void add_dataset_command(CLI::App& app, const GlobalOptions& global) {
   CLI::App* info = dataset->add_subcommand("info", "Frames, duration, sensors, calibration, ground truth, IMU");
   add_source_options(*info, *options);
   info->add_flag("--json", options->json, "Print JSON instead of text");
-  info->add_flag("--check", options->check, "Decode every frame and count unreadable ones");
+  info->add_flag("--check", options->check, "Decode every frame and count unreadable ones (exit 1 when there are)");
   info->callback([options, &global] { run_info(*options, global); });
 
   CLI::App* convert = dataset->add_subcommand(

@@ -118,7 +118,7 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
   if (!T_body_cam0 && file_exists(cam0_yaml)) T_body_cam0 = read_euroc_T_BS(cam0_yaml);
   if (!config.groundtruth_file.empty()) {
     if (config.groundtruth_in_body_frame && !T_body_cam0) {
-      throw InputError(config.groundtruth_file, "holds body poses (groundtruth_in_body_frame), but the body-to-camera "
+      throw InputError(config.groundtruth_file, "holds body poses (--groundtruth-body; groundtruth_in_body_frame), but the body-to-camera "
                                                 "transform is unknown: the calibration has no T_body_cam0 (IMU.T_b_c1 "
                                                 "or Tbc) and there is no cam0/sensor.yaml with T_BS");
     }

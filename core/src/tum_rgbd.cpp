@@ -213,7 +213,7 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
       config.groundtruth_file.empty() ? root / "groundtruth.txt" : std::filesystem::path(config.groundtruth_file);
   if (!config.groundtruth_file.empty() || std::filesystem::exists(gt_file, ec)) {
     if (config.groundtruth_in_body_frame && !sequence.rig.T_body_cam0) {
-      throw InputError(gt_file.string(), "holds body poses (groundtruth_in_body_frame), but the calibration has no "
+      throw InputError(gt_file.string(), "holds body poses (--groundtruth-body; groundtruth_in_body_frame), but the calibration has no "
                                          "body-to-camera transform (T_body_cam0: IMU.T_b_c1 or Tbc)");
     }
     attach_groundtruth(sequence, gt_file, config.groundtruth_in_body_frame ? sequence.rig.T_body_cam0 : std::nullopt,

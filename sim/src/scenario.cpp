@@ -174,7 +174,15 @@ void check_start_overlap(const std::filesystem::path& file, const ScenarioConfig
 
 }  // namespace
 
+void refuse_scene_file(const std::filesystem::path& file) {
+  if (file.extension() == ".xml") {
+    throw InputError(file.string(), "is a MuJoCo scene (XML); give the scenario YAML that names it (scene: ...), "
+                                    "e.g. the .yaml files beside it");
+  }
+}
+
 ScenarioConfig load_scenario(const std::filesystem::path& file) {
+  refuse_scene_file(file);
   ScenarioConfig scenario;
   core::ConfigReader reader = core::ConfigReader::from_file(file).section("");
   scenario.visit(reader);

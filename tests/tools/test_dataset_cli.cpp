@@ -122,6 +122,12 @@ TEST_F(DatasetCli, CalibrationFromAnOrbSlamSettingsFile) {
   EXPECT_EQ(j["rig"]["mode"], "stereo_inertial");
   EXPECT_NEAR(j["rig"]["baseline_m"].get<double>(), 0.1101, 1e-4);
   EXPECT_EQ(j["check"]["decoded_frames"], 95);
+  // A calibration that does not fit the images (TUM's 640x480 for EuRoC's 752x480): every frame is
+  // unreadable, and the check fails (exit 1) after its report.
+  const Result bad = run("dataset info " + quoted(kEuroc) + " --check --calibration " + quoted(kData / "calib" / "TUM1.yaml"));
+  EXPECT_EQ(bad.exit_code, 1) << bad.err;
+  EXPECT_NE(bad.out.find("0 frames decoded, 95 unreadable"), std::string::npos) << bad.out;
+  EXPECT_NE(bad.err.find("dataset check failed: 95 of 95 frame(s)"), std::string::npos) << bad.err;
 }
 
 TEST_F(DatasetCli, ConvertTumToTumKeepsFramesBitExact) {

@@ -215,6 +215,11 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
   RunResult r = run("run '" + (dir / "absent.yaml").string() + "' --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("absent.yaml"), std::string::npos) << r.output;
+  // The scene's XML where the scenario YAML belongs: said so (it was "malformed YAML").
+  const fs::path scene = kOffice.parent_path() / "office.xml";
+  r = run("run '" + scene.string() + "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("office.xml: is a MuJoCo scene (XML); give the scenario YAML"), std::string::npos) << r.output;
   r = run("run '" + kOffice.string() + "' --prior-error 0.1 0 0 --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   r = run("run '" + kOffice.string() + "' --prior-error nan 0 0 0 --out '" + (dir / "nan_prior").string() + "'");

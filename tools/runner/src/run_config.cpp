@@ -7,6 +7,7 @@
 namespace fleetslam::runner {
 
 RunScenarioConfig load_run_scenario(const std::filesystem::path& file, std::optional<std::int64_t> seed) {
+  sim::refuse_scene_file(file);
   RunScenarioConfig config = core::load_config<RunScenarioConfig>(file);
   if (seed) {
     config.world.seed = *seed;

@@ -165,6 +165,9 @@ struct ScenarioConfig {
 // config, the central unit's, the planner's, the mission and the pass criteria); load_scenario skips them.
 inline constexpr const char* kRunSections[] = {"agent", "central", "planner", "mission", "criteria"};
 
+// A MuJoCo scene (.xml) given where a scenario is expected: an InputError saying so.
+void refuse_scene_file(const std::filesystem::path& file);
+
 // Reads a scenario file: the typed config plus checks that need the whole (unique robot names,
 // at least one robot, waypoints fit the robot type). Throws InputError naming file:key.
 ScenarioConfig load_scenario(const std::filesystem::path& file);
