@@ -261,7 +261,9 @@ void run_eval(const EvalOptions& o, const GlobalOptions& global) {
   if (!global.quiet) print_report(o, gt, est, indexed, ate, rpe);
   write_json(out_dir / "metrics.json", metrics_json(o, s.association, gt, est, indexed, ate, rpe));
   const Trajectory aligned = apply_alignment(ate.alignment, est.trajectory);
-  write_trajectory(out_dir / "estimate_aligned.txt", aligned, TrajectoryFormat::kTum);
+  // KITTI in, KITTI out: its poses have no time, and TUM lines would carry their indices as stamps.
+  write_trajectory(out_dir / "estimate_aligned.txt", aligned,
+                   est.format == TrajectoryFormat::kKitti ? TrajectoryFormat::kKitti : TrajectoryFormat::kTum);
   TrajectoryPlotLabels labels;
   labels.title = fs::path(o.est_path).filename().string() + " vs " + fs::path(o.gt_path).filename().string();
   labels.subtitle = o.align + " alignment, " + std::to_string(ate.pairs.size()) + " pairs, ATE RMSE " +
@@ -278,7 +280,7 @@ void add_eval_command(CLI::App& app, const GlobalOptions& global) {
   CLI::App* cmd = app.add_subcommand(
       "eval",
       "Evaluate an estimated trajectory against ground truth: ATE (as the TUM benchmark's evaluate_ate.py) and "
-      "RPE. Writes metrics.json, estimate_aligned.txt (TUM) and trajectories.svg to --out.");
+      "RPE. Writes metrics.json, estimate_aligned.txt (TUM; KITTI for a KITTI estimate) and trajectories.svg to --out.");
   cmd->add_option("--gt", options->gt_path, "Ground-truth trajectory file")->required();
   cmd->add_option("--est", options->est_path, "Estimated trajectory file")->required();
   cmd->add_option("--align", options->align, "Alignment of the estimate onto the ground truth")

@@ -129,6 +129,9 @@ TEST(EvalCli, KittiPairsByIndexAndOffsetShiftsTheEstimate) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(read_json(dir / "k" / "metrics.json")["association"]["method"], "index");
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+  // KITTI in, KITTI out: the aligned estimate has no invented stamps.
+  EXPECT_EQ(core::detect_trajectory_format(dir / "k" / "estimate_aligned.txt"), TrajectoryFormat::kKitti);
+  EXPECT_EQ(core::read_trajectory(dir / "k" / "estimate_aligned.txt").size(), 100u);
   // Counts that differ pair the first poses of each, with a warning giving both counts.
   core::write_trajectory(dir / "short.kitti", Trajectory(gt.begin(), gt.begin() + 40), TrajectoryFormat::kKitti);
   r = run_in(dir, "eval --gt gt.kitti --est short.kitti --out s");
