@@ -322,12 +322,12 @@ core::Trajectory Server::robot_keyframes(int robot_id, std::optional<int> compon
   return out;
 }
 
-std::vector<ServerKeyframe> Server::robot_keyframe_clouds(int robot_id) const {
+std::vector<const ServerKeyframe*> Server::robot_keyframe_clouds(int robot_id) const {
   const RobotState& robot = state(robot_id);
-  std::vector<ServerKeyframe> out;
+  std::vector<const ServerKeyframe*> out;
   out.reserve(robot.keyframes.size());
-  for (const auto& entry : robot.keyframes) out.push_back(entry.second);
-  std::stable_sort(out.begin(), out.end(), [](const ServerKeyframe& a, const ServerKeyframe& b) { return a.t_ns < b.t_ns; });
+  for (const auto& entry : robot.keyframes) out.push_back(&entry.second);
+  std::stable_sort(out.begin(), out.end(), [](const ServerKeyframe* a, const ServerKeyframe* b) { return a->t_ns < b->t_ns; });
   return out;
 }
 

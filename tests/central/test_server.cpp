@@ -469,7 +469,8 @@ std::size_t count_colour(const core::PointCloud& cloud, std::uint8_t green, std:
 // Returns how many points were masked.
 std::size_t check_masks_against_the_truth(const Server& server, const TwoRobots& s, double margin_m, bool expect_mid) {
   std::size_t masked = 0;
-  for (const ServerKeyframe& kf : server.robot_keyframe_clouds(0)) {
+  for (const ServerKeyframe* kf_view : server.robot_keyframe_clouds(0)) {
+    const ServerKeyframe& kf = *kf_view;
     const bool mid = kf.t_ns == 6'500'000'000LL;
     const Eigen::Vector3d b = Sightings::b_at(core::ns_to_seconds(kf.t_ns));
     const Eigen::Isometry3d T_world_cam = s.T_world_a * kf.T_robot_cam;

@@ -377,9 +377,16 @@ RunOutcome Runner::run(const ProgressSink& progress) {
     std::vector<planners::SensorView> views;
     for (std::size_t r = 0; r < robots.size() && config_.planner.grid.carve_rays; ++r) {
       if (!robots[r].T_world_robot_true) continue;
-      for (const central::ServerKeyframe& kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
-        const Eigen::Isometry3d T_world_cam = server.T_world_component(static_cast<int>(r), kf.component) * kf.T_robot_cam;
-        views.push_back({T_world_cam.translation().cast<float>(), core::transformed(kf.dense_cam, T_world_cam).points});
+      for (const central::ServerKeyframe* kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
+        const Eigen::Isometry3d T_world_cam = server.T_world_component(static_cast<int>(r), kf->component) * kf->T_robot_cam;
+        // The points alone, as core::transform_in_place computes them (a transformed() copy of the cloud
+        // would copy its colours and normals too).
+        const Eigen::Matrix3f R = T_world_cam.linear().cast<float>();
+        const Eigen::Vector3f t = T_world_cam.translation().cast<float>();
+        std::vector<Eigen::Vector3f> points_world;
+        points_world.reserve(kf->dense_cam.size());
+        for (const Eigen::Vector3f& p : kf->dense_cam.points) points_world.push_back(R * p + t);
+        views.push_back({T_world_cam.translation().cast<float>(), std::move(points_world)});
       }
     }
     for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen, views)) world.set_path(c.robot, c.path_world);

@@ -186,8 +186,9 @@ class Server {
   // Where the robot's map component lies in the world as the last merge has it (before: the prior).
   Eigen::Isometry3d T_world_component(int robot_id, int component) const;
   // The same keyframes with their dense clouds (camera frame, as sent, with the points on other robots
-  // marked): where each cloud was seen from, for free-space carving.
-  std::vector<ServerKeyframe> robot_keyframe_clouds(int robot_id) const;
+  // marked): where each cloud was seen from, for free-space carving. Views into the server's own
+  // keyframes (no copy of the clouds), valid until its next integrate() or merge().
+  std::vector<const ServerKeyframe*> robot_keyframe_clouds(int robot_id) const;
   // After merge(): the robot's frames in the world frame (before: placed by the prior).
   core::Trajectory world_trajectory(int robot_id) const;
 
