@@ -272,8 +272,9 @@ void print_summary(const RunResult& run, const std::vector<core::SkippedRow>& un
     std::printf("ATE RMSE:     %.4f m (%zu pairs, se3 alignment)\n", ate->stats.rmse, ate->pairs.size());
   }
   std::printf("wrote:        %s/{trajectory.txt,keyframes.txt,timings.csv,keyframe_decisions.csv,config.yaml,"
-              "metrics.json%s}\n",
-              out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply");
+              "metrics.json%s%s}\n",
+              out.string().c_str(), run.dense.empty() ? "" : ",dense_map.ply",
+              run.per_frame_groundtruth.empty() ? "" : ",groundtruth.txt");
 }
 
 // The files a replay writes in its folder, some only sometimes (a dense map, ground truth, the split's
