@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/fmt/fmt.h>
 
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -91,6 +92,7 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
   }
   // The seed goes in before the robots' seeds are derived from it.
   runner::RunScenarioConfig config = runner::load_run_scenario(o.scenario, o.seed);
+  const double scenario_duration_s = config.world.duration_s;
   if (o.duration_s) config.world.duration_s = *o.duration_s;
   config.agent = read_config_file<slam::AgentConfig>(o.agent_config, config.agent);
   config.central = read_config_file<central::ServerConfig>(o.central_config, config.central);
@@ -122,7 +124,13 @@ void run_scenario(const RunOptions& o, const GlobalOptions& global) {
       failed += (failed.empty() ? "" : ", ") + c["name"].get<std::string>();
       if (!c["robot"].get<std::string>().empty()) failed += " (" + c["robot"].get<std::string>() + ")";
     }
-    throw CriteriaFailed("run failed its pass criteria: " + failed + " (see " + (fs::path(o.out) / "report.html").string() + ")");
+    // A run cut short by --duration is judged by the scenario's criteria all the same: say so.
+    const std::string cut = o.duration_s && *o.duration_s < scenario_duration_s
+                                ? fmt::format("; --duration {:g} s cut the scenario's {:g} s short", *o.duration_s,
+                                              scenario_duration_s)
+                                : std::string();
+    throw CriteriaFailed("run failed its pass criteria: " + failed + " (see " + (fs::path(o.out) / "report.html").string() +
+                         ")" + cut);
   }
 }
 

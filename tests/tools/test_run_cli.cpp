@@ -129,6 +129,7 @@ TEST(RunCli, FailedCriterionExitsOneWithTheVerdict) {
   EXPECT_NE(read_text(out / "run.log").find("removed 2 output file(s) of an earlier run"), std::string::npos);
   EXPECT_NE(r.output.find("failed its pass criteria: ate_world_rmse_m (alpha)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("real_time_factor"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--duration 1 s cut the scenario's 25 s short"), std::string::npos) << r.output;
   const nlohmann::json metrics = nlohmann::json::parse(read_text(out / "metrics.json"));
   EXPECT_FALSE(metrics["verdict"]["passed"].get<bool>());
   EXPECT_EQ(metrics["verdict"]["criteria"].size(), 3u);  // ATE for each robot and the real-time factor
