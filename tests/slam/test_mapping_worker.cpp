@@ -23,17 +23,22 @@ LocalMappingConfig idle_config() {
   return config;
 }
 
-TEST(MappingWorker, RethrowsAWorkerExceptionOnTheCallersThreadAndDropsTheQueue) {
-  const core::Logger logger = core::make_logger("mapping_worker_test", core::LogLevel::kOff);
-  LocalMapper mapper(idle_config(), logger);
+// What a worker maps into: an empty map under its mutex, and the changes it records.
+struct Mapped {
+  core::Logger logger = core::make_logger("mapping_worker_test", core::LogLevel::kOff);
+  LocalMapper mapper{idle_config(), logger};
   Map map;
   std::mutex map_mutex;
   MappingChanges changes;
+};
+
+TEST(MappingWorker, RethrowsAWorkerExceptionOnTheCallersThreadAndDropsTheQueue) {
+  Mapped m;
   std::promise<void> queued;
   std::shared_future<void> all_queued = queued.get_future().share();
   std::mutex seen_mutex;
   std::vector<KeyframeId> seen;
-  MappingWorker worker(mapper, map, map_mutex, changes, logger, [&](KeyframeId id) {
+  MappingWorker worker(m.mapper, m.map, m.map_mutex, m.changes, m.logger, [&](KeyframeId id) {
     {
       const std::lock_guard<std::mutex> lock(seen_mutex);
       seen.push_back(id);
@@ -61,14 +66,10 @@ TEST(MappingWorker, RethrowsAWorkerExceptionOnTheCallersThreadAndDropsTheQueue) 
 }
 
 TEST(MappingWorker, MapsEveryQueuedKeyframeWithoutAnError) {
-  const core::Logger logger = core::make_logger("mapping_worker_test", core::LogLevel::kOff);
-  LocalMapper mapper(idle_config(), logger);
-  Map map;
-  std::mutex map_mutex;
-  MappingChanges changes;
+  Mapped m;
   std::mutex seen_mutex;
   std::vector<KeyframeId> seen;
-  MappingWorker worker(mapper, map, map_mutex, changes, logger, [&](KeyframeId id) {
+  MappingWorker worker(m.mapper, m.map, m.map_mutex, m.changes, m.logger, [&](KeyframeId id) {
     const std::lock_guard<std::mutex> lock(seen_mutex);
     seen.push_back(id);
   });
