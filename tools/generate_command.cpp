@@ -162,7 +162,7 @@ core::OrbSlamSettings orbslam_settings(const core::SensorRig& rig) {
 
 // The effective scenario, loadable from the output folder: the scene path made absolute.
 void write_effective_scenario(const fs::path& file, sim::ScenarioConfig scenario) {
-  scenario.scene = fs::absolute(scenario.scene_path()).lexically_normal().string();
+  scenario.scene = scenario.absolute_scene_path().string();
   std::ofstream out(file);
   out << "# Effective scenario written by fleetslam generate\n" << core::config_to_yaml(scenario);
   if (!out) throw InputError(file.string(), "cannot write the scenario");

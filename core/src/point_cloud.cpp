@@ -52,6 +52,15 @@ void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T) {
   for (Eigen::Vector3f& n : cloud.normals) n = R * n;
 }
 
+std::vector<Eigen::Vector3f> transformed_points(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(points.size());
+  for (const Eigen::Vector3f& p : points) out.push_back(R * p + t);
+  return out;
+}
+
 PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T) {
   PointCloud out = cloud;
   transform_in_place(out, T);

@@ -91,6 +91,7 @@ std::vector<std::size_t> rpe_partners(const Trajectory& gt, const std::vector<Po
   const TimeNs max_step = 2 * sorted[sorted.size() / 2];
   std::vector<std::size_t> gaps_before(n, 0);  // steps longer than max_step among the first k
   for (std::size_t k = 1; k < n; ++k) gaps_before[k] = gaps_before[k - 1] + (steps[k - 1] > max_step ? 1 : 0);
+  const TimeNs delta_ns = config.unit == RpeUnit::kSeconds ? seconds_to_ns(config.delta) : 0;
 
   if (config.unit == RpeUnit::kFrames) {
     // The estimate's own frame delta later, when it is paired too (evaluate_rpe.py steps through the
@@ -107,7 +108,6 @@ std::vector<std::size_t> rpe_partners(const Trajectory& gt, const std::vector<Po
       if (e < pair_of_est.size()) partner[k] = pair_of_est[e];
     }
   } else if (config.unit == RpeUnit::kSeconds) {
-    const TimeNs delta_ns = seconds_to_ns(config.delta);
     for (std::size_t k = 0; k < n; ++k) partner[k] = first_reaching(stamps, k, delta_ns);
   } else {
     std::vector<double> travelled(n, 0.0);
@@ -122,7 +122,7 @@ std::vector<std::size_t> rpe_partners(const Trajectory& gt, const std::vector<Po
     const std::size_t j = partner[k];
     if (j >= n || j <= k) continue;
     const bool across =
-        config.unit == RpeUnit::kSeconds ? stamps[j] - stamps[k] - seconds_to_ns(config.delta) > max_step
+        config.unit == RpeUnit::kSeconds ? stamps[j] - stamps[k] - delta_ns > max_step
         : config.unit == RpeUnit::kMeters ? gaps_before[j] != gaps_before[k]
                                           : false;
     if (across) {

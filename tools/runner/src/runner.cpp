@@ -262,7 +262,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
   if (removed > 0) logger->info("removed {} output file(s) of an earlier run from {}", removed, out.string());
   // The effective scenario runs again from the output folder: its scene path is absolute.
   RunScenarioConfig effective = config_;
-  effective.world.scene = fs::absolute(config_.world.scene_path()).lexically_normal().string();
+  effective.world.scene = config_.world.absolute_scene_path().string();
   write_text_file(out / "scenario.yaml", core::config_to_yaml(effective));
 
   sim::World world(config_.world, logger);
@@ -379,14 +379,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
       if (!robots[r].T_world_robot_true) continue;
       for (const central::ServerKeyframe* kf : server.robot_keyframe_clouds(static_cast<int>(r))) {
         const Eigen::Isometry3d T_world_cam = server.T_world_component(static_cast<int>(r), kf->component) * kf->T_robot_cam;
-        // The points alone, as core::transform_in_place computes them (a transformed() copy of the cloud
-        // would copy its colours and normals too).
-        const Eigen::Matrix3f R = T_world_cam.linear().cast<float>();
-        const Eigen::Vector3f t = T_world_cam.translation().cast<float>();
-        std::vector<Eigen::Vector3f> points_world;
-        points_world.reserve(kf->dense_cam.size());
-        for (const Eigen::Vector3f& p : kf->dense_cam.points) points_world.push_back(R * p + t);
-        views.push_back({T_world_cam.translation().cast<float>(), std::move(points_world)});
+        views.push_back({T_world_cam.translation().cast<float>(), core::transformed_points(kf->dense_cam.points, T_world_cam)});
       }
     }
     for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen, views)) world.set_path(c.robot, c.path_world);

@@ -45,6 +45,8 @@ struct PointCloud {
 // Points mapped by T (p' = T * p), normals rotated; colours unchanged.
 PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T);
 void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T);
+// The points alone moved by T, computed as transform_in_place does (no copy of colours or normals).
+std::vector<Eigen::Vector3f> transformed_points(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& T);
 
 // Drops points with a NaN or infinite coordinate; returns how many were dropped.
 std::size_t remove_non_finite(PointCloud& cloud);

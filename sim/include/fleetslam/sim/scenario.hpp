@@ -159,6 +159,8 @@ struct ScenarioConfig {
   }
 
   std::filesystem::path scene_path() const { return base_dir / scene; }
+  // The same, absolute and normalised: what an effective scenario written elsewhere names.
+  std::filesystem::path absolute_scene_path() const { return std::filesystem::absolute(scene_path()).lexically_normal(); }
 };
 
 // Sections of a scenario file that the layers above the simulator read (`fleetslam run`: the agents'
