@@ -2,6 +2,8 @@
 
 #include <fstream>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -59,6 +61,24 @@ void write_imu_yaml(const std::filesystem::path& file, const ImuNoise& noise) {
                        "\naccelerometer_random_walk: " + exact(noise.accel_random_walk) + "\n");
 }
 
+// EuRoC's state ground truth: each body pose with the body's velocity in the world and the IMU biases.
+void write_states(const std::filesystem::path& file, const Trajectory& body_poses, const std::vector<ImuStateGt>& states) {
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [],"
+         "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
+         "b_w_RS_S_z [rad s^-1],b_a_RS_S_x [m s^-2],b_a_RS_S_y [m s^-2],b_a_RS_S_z [m s^-2]\n";
+  for (std::size_t i = 0; i < body_poses.size(); ++i) {
+    std::string line = format_trajectory_line(body_poses[i], TrajectoryFormat::kEuroc);
+    line.pop_back();  // its newline
+    for (const Eigen::Vector3d* v : {&states[i].v_world_mps, &states[i].gyro_bias_radps, &states[i].accel_bias_mps2}) {
+      for (int k = 0; k < 3; ++k) line += ',' + exact((*v)(k));
+    }
+    out << line << '\n';
+  }
+  out.flush();
+  if (!out) throw InputError(file.string(), "cannot write the file");
+}
+
 std::string frame_name(const SensorFrame& frame) {
   return "frame " + std::to_string(frame.sequence) + " (t " + std::to_string(frame.t_ns) + " ns)";
 }
@@ -72,6 +92,8 @@ struct EurocWriter::Files {
   TimeNs last_imu_t_ns = 0;
   bool any_imu = false;
   Trajectory body_poses;
+  std::vector<ImuStateGt> states;  // one per body pose while every posed frame brought one
+  bool all_states = true;
 };
 
 EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
@@ -165,6 +187,8 @@ void EurocWriter::write(const SensorFrame& frame) {
   if (frame.T_world_cam_gt) {
     const Eigen::Isometry3d T_body_cam0 = rig_.T_body_cam0.value_or(Eigen::Isometry3d::Identity());
     files_->body_poses.push_back({frame.t_ns, *frame.T_world_cam_gt * T_body_cam0.inverse()});
+    files_->all_states = files_->all_states && frame.imu_state_gt.has_value();
+    if (files_->all_states) files_->states.push_back(*frame.imu_state_gt);
   }
   last_t_ns_ = frame.t_ns;
   ++frames_;
@@ -183,7 +207,12 @@ void EurocWriter::close() {
   }
   if (!files_->body_poses.empty()) {
     std::filesystem::create_directories(mav0_ / "state_groundtruth_estimate0");
-    write_trajectory(mav0_ / "state_groundtruth_estimate0" / "data.csv", files_->body_poses, TrajectoryFormat::kEuroc);
+    const std::filesystem::path file = mav0_ / "state_groundtruth_estimate0" / "data.csv";
+    if (files_->all_states && rig_.imu) {
+      write_states(file, files_->body_poses, files_->states);
+    } else {
+      write_trajectory(file, files_->body_poses, TrajectoryFormat::kEuroc);
+    }
   }
   commit_staged_folder(staging_, root_);
   mav0_ = root_ / "mav0";

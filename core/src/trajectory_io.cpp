@@ -408,7 +408,9 @@ void put_number(std::string& out, double value) {
   out.append(buffer.data(), end);
 }
 
-std::string format_line(const StampedPose& pose, TrajectoryFormat format) {
+}  // namespace
+
+std::string format_trajectory_line(const StampedPose& pose, TrajectoryFormat format) {
   const Eigen::Vector3d t = pose.T_world_body.translation();
   const Eigen::Matrix3d R = pose.T_world_body.linear();
   const Eigen::Quaterniond q(R);
@@ -437,8 +439,6 @@ std::string format_line(const StampedPose& pose, TrajectoryFormat format) {
   return out;
 }
 
-}  // namespace
-
 void write_trajectory(const fs::path& path, const Trajectory& trajectory, TrajectoryFormat format) {
   const std::string file = path.string();
   std::error_code ec;
@@ -450,7 +450,7 @@ void write_trajectory(const fs::path& path, const Trajectory& trajectory, Trajec
   if (format == TrajectoryFormat::kEuroc) {
     out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
   }
-  for (const StampedPose& pose : trajectory) out << format_line(pose, format);
+  for (const StampedPose& pose : trajectory) out << format_trajectory_line(pose, format);
   out.flush();
   if (!out) throw InputError(file, "write failed");
 }

@@ -117,6 +117,8 @@ struct World::Impl {
   std::vector<core::SensorFrame> process_events(core::TimeNs t_ns);
   core::ImuSample imu_sample(RobotRuntime& robot, core::TimeNs t_ns);
   core::SensorFrame render_frame(RobotRuntime& robot, std::size_t index, core::TimeNs t_ns);
+  // Velocity of the robot's body frame origin in the world at t_ns (the state's time).
+  Eigen::Vector3d velocity_world(const RobotRuntime& robot, core::TimeNs t_ns) const;
   void log_mujoco_warnings() const;
   void check_actuator_stability() const;
 };
@@ -207,6 +209,13 @@ void World::Impl::prepare(core::TimeNs t_ns) {
   }
 }
 
+Eigen::Vector3d World::Impl::velocity_world(const RobotRuntime& robot, core::TimeNs t_ns) const {
+  if (robot.trajectory) return robot.trajectory->evaluate(t_ns).v_world_mps;
+  // Diff drive: slide joints along the world's x and y axes carry the body; the yaw hinge and the IMU site
+  // are at its origin.
+  return Eigen::Vector3d(data->qvel[robot.dof_x], data->qvel[robot.dof_y], 0.0);
+}
+
 core::ImuSample World::Impl::imu_sample(RobotRuntime& robot, core::TimeNs t_ns) {
   Eigen::Vector3d gyro;
   Eigen::Vector3d accel;
@@ -275,6 +284,10 @@ core::SensorFrame World::Impl::render_frame(RobotRuntime& robot, std::size_t ind
   frame.imu = std::move(robot.pending_imu);
   robot.pending_imu.clear();
   frame.T_world_cam_gt = body_pose(data.get(), robot.body_id) * robot.T_body_cam;
+  if (robot.config.imu.enabled) {
+    frame.imu_state_gt = core::ImuStateGt{velocity_world(robot, t_ns), robot.imu.gyro_bias_radps(),
+                                          robot.imu.accel_bias_mps2()};
+  }
   return frame;
 }
 
@@ -494,11 +507,7 @@ RobotTruth World::truth(std::size_t robot) const {
   const mjData* d = impl_->data.get();
   RobotTruth truth;
   truth.T_world_body = body_pose(d, r.body_id);
-  if (r.trajectory) {
-    truth.v_world_mps = r.trajectory->evaluate(impl_->time_ns).v_world_mps;
-  } else {
-    truth.v_world_mps = Eigen::Vector3d(d->qvel[r.dof_x], d->qvel[r.dof_y], 0.0);
-  }
+  truth.v_world_mps = impl_->velocity_world(r, impl_->time_ns);
   truth.gyro_bias_radps = r.imu.gyro_bias_radps();
   truth.accel_bias_mps2 = r.imu.accel_bias_mps2();
   for (int c = 0; c < d->ncon; ++c) {

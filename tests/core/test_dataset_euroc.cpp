@@ -3,7 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <random>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -215,6 +219,85 @@ TEST(Euroc, AnImuRigWithoutSamplesWritesNoImuFolder) {
   test::write_file(imu_csv, "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
                             "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n");
   expect_input_error([&] { open(dir / "inertial"); }, {"imu0/data.csv", "lists no IMU samples"});
+}
+
+// Lines of a CSV file after its header, split at commas.
+std::vector<std::vector<std::string>> csv_rows(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream fields_in(line);
+    for (std::string field; std::getline(fields_in, field, ',');) fields.push_back(field);
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+// Frames that carry the IMU state (as the simulator's do) get EuRoC's 17-column state ground truth, exact;
+// the reader takes its poses as from the 8-column file. One posed frame without a state, or a rig without
+// an IMU, gives the 8 pose columns.
+TEST(Euroc, TheImuStateOfTheFramesIsWrittenAsEurocsStateGroundTruth) {
+  TempDir dir;
+  std::vector<SensorFrame> frames = make_frames(8);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> value(0.0, 1.0);
+  for (SensorFrame& frame : frames) {
+    ImuStateGt state;
+    state.v_world_mps = {value(rng), value(rng), value(rng)};
+    state.gyro_bias_radps = {1e-3 * value(rng), 1e-3 * value(rng), 1e-3 * value(rng)};
+    state.accel_bias_mps2 = {1e-2 * value(rng), 1e-2 * value(rng), 1e-2 * value(rng)};
+    frame.imu_state_gt = state;
+  }
+  write_sequence(dir / "full", frames);
+  const auto file = dir / "full" / "mav0" / "state_groundtruth_estimate0" / "data.csv";
+  std::ifstream in(file);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_NE(header.find("v_RS_R_x [m s^-1]"), std::string::npos);
+  EXPECT_NE(header.find("b_a_RS_S_z [m s^-2]"), std::string::npos);
+  const std::vector<std::vector<std::string>> rows = csv_rows(file);
+  ASSERT_EQ(rows.size(), frames.size() - 1);  // frame 4 has no pose
+  std::size_t row = 0;
+  for (const SensorFrame& frame : frames) {
+    if (!frame.T_world_cam_gt) continue;
+    SCOPED_TRACE(frame.sequence);
+    const std::vector<std::string>& f = rows[row++];
+    ASSERT_EQ(f.size(), 17u);
+    EXPECT_EQ(std::stoll(f[0]), frame.t_ns);
+    const ImuStateGt& state = *frame.imu_state_gt;
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(std::stod(f[8 + static_cast<std::size_t>(k)]), state.v_world_mps(k));
+      EXPECT_EQ(std::stod(f[11 + static_cast<std::size_t>(k)]), state.gyro_bias_radps(k));
+      EXPECT_EQ(std::stod(f[14 + static_cast<std::size_t>(k)]), state.accel_bias_mps2(k));
+    }
+  }
+  write_sequence(dir / "poses", make_frames(8));
+  const std::vector<SensorFrame> full = read_all(*open(dir / "full"));
+  const std::vector<SensorFrame> poses = read_all(*open(dir / "poses"));
+  ASSERT_EQ(full.size(), poses.size());
+  for (std::size_t i = 0; i < full.size(); ++i) {
+    ASSERT_EQ(full[i].T_world_cam_gt.has_value(), poses[i].T_world_cam_gt.has_value());
+    if (full[i].T_world_cam_gt) {
+      EXPECT_TRUE(full[i].T_world_cam_gt->isApprox(*poses[i].T_world_cam_gt, 1e-15));
+    }
+  }
+
+  frames[7].imu_state_gt.reset();
+  write_sequence(dir / "one_missing", frames);
+  for (const auto& f : csv_rows(dir / "one_missing" / "mav0" / "state_groundtruth_estimate0" / "data.csv")) {
+    EXPECT_EQ(f.size(), 8u);
+  }
+  frames[7].imu_state_gt = ImuStateGt{};
+  SensorRig no_imu = stereo_rig();
+  no_imu.imu.reset();
+  no_imu.mode = SensorMode::kStereo;
+  write_sequence(dir / "no_imu", frames, no_imu);
+  for (const auto& f : csv_rows(dir / "no_imu" / "mav0" / "state_groundtruth_estimate0" / "data.csv")) {
+    EXPECT_EQ(f.size(), 8u);
+  }
 }
 
 TEST(Euroc, CamOneRowsPastTheEndAndUnpairedRowsAreSkipped) {

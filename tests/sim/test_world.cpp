@@ -3,10 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -322,6 +324,70 @@ TEST(World, IntegratingNoiseFreeImuOverOneSecondReproducesTheMotion) {
   }
   EXPECT_LT((p - T_end_true.translation()).norm(), 5e-3);
   EXPECT_LT(core::rotation_angle_rad(R.transpose() * T_end_true.linear()), 1e-3);
+}
+
+// Each frame of a robot with an IMU carries the IMU's state: velocity as the poses' central differences
+// say (a kinematic rig and a diff-drive robot turning on its way), biases as the IMU model holds them (noise
+// on: they walk). A robot without an IMU carries none.
+TEST(World, FramesCarryTheImuStateAtTheirInstant) {
+  const fs::path dir = write_scene("imu_state", kWallScene);
+  RobotConfig rig = moving_rig();
+  rig.imu.noise_enabled = true;
+  rig.imu.initial_gyro_bias_radps = {0.01, -0.02, 0.005};
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.seed = 2;
+  rover.camera.width = 32;
+  rover.camera.height = 24;
+  WaypointConfig a;
+  a.x = 0.5;
+  a.y = 0.5;
+  WaypointConfig b;
+  b.x = 0.5;
+  b.y = -0.5;
+  rover.waypoints = {a, b};
+  RobotConfig blind = still_rig("blind", PoseConfig{0, 1, 1, 0, 0, 0});
+  blind.camera.width = 32;
+  blind.camera.height = 24;
+  blind.imu.enabled = false;
+  World world(scenario_in(dir, {rig, rover, blind}, 2.0), nullptr);
+  std::vector<std::vector<core::SensorFrame>> by_robot(3);
+  bool biases_walked = false;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    for (core::SensorFrame& frame : frames) {
+      const auto r = static_cast<std::size_t>(frame.robot_id);
+      if (r == 2) {
+        EXPECT_FALSE(frame.imu_state_gt.has_value());
+        continue;
+      }
+      ASSERT_TRUE(frame.imu_state_gt.has_value());
+      const RobotTruth truth = world.truth(r);
+      EXPECT_EQ(frame.imu_state_gt->v_world_mps, truth.v_world_mps);
+      EXPECT_EQ(frame.imu_state_gt->gyro_bias_radps, truth.gyro_bias_radps);
+      EXPECT_EQ(frame.imu_state_gt->accel_bias_mps2, truth.accel_bias_mps2);
+      if (r == 0) biases_walked = biases_walked || (truth.gyro_bias_radps - Eigen::Vector3d(0.01, -0.02, 0.005)).norm() > 1e-6;
+      by_robot[r].push_back(std::move(frame));
+    }
+  }
+  EXPECT_TRUE(biases_walked);
+  for (std::size_t r = 0; r < 2; ++r) {
+    SCOPED_TRACE(r);
+    const std::vector<core::SensorFrame>& frames = by_robot[r];
+    ASSERT_GT(frames.size(), 20u);
+    const Eigen::Isometry3d T_cam_body = world.T_body_cam(r).inverse();
+    double worst = 0.0;
+    double fastest = 0.0;
+    for (std::size_t i = 1; i + 1 < frames.size(); ++i) {
+      const Eigen::Vector3d p_before = (*frames[i - 1].T_world_cam_gt * T_cam_body).translation();
+      const Eigen::Vector3d p_after = (*frames[i + 1].T_world_cam_gt * T_cam_body).translation();
+      const double dt_s = core::ns_to_seconds(frames[i + 1].t_ns - frames[i - 1].t_ns);
+      const Eigen::Vector3d v_numeric = (p_after - p_before) / dt_s;
+      worst = std::max(worst, (v_numeric - frames[i].imu_state_gt->v_world_mps).norm());
+      fastest = std::max(fastest, v_numeric.norm());
+    }
+    EXPECT_GT(fastest, 0.1);  // it moved
+    EXPECT_LT(worst, 0.02 * fastest + 1e-3);
+  }
 }
 
 TEST(World, CameraTicksDoNotDriftAndImuAttachesToTheRightFrames) {

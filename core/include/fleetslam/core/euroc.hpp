@@ -57,7 +57,9 @@ std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, Datas
 
 // Writes frames as a EuRoC mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
 // data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and
-// state_groundtruth_estimate0/data.csv (body poses, body = IMU frame) when frames carry poses.
+// state_groundtruth_estimate0/data.csv (body poses, body = IMU frame) when frames carry poses: with
+// EuRoC's velocity and bias columns when the rig has an IMU and every posed frame brought its state
+// (SensorFrame::imu_state_gt, as the simulator's frames do), the 8 pose columns otherwise.
 // Colour images are converted to gray; depth maps are dropped (with one warning). A rig with an IMU
 // whose frames brought no sample gets no imu0/ (with a warning): the reader refuses an empty IMU list.
 // A frame is checked whole before any of it is written. The sequence is written to root + ".partial"

@@ -20,6 +20,15 @@ struct ImuSample {
   Eigen::Vector3d accel_mps2 = Eigen::Vector3d::Zero();  // specific force in the IMU frame
 };
 
+// What the simulator knows of an IMU's state at a frame's t_ns besides the pose (EuRoC's
+// state_groundtruth_estimate0 columns after the pose): the velocity of the body (IMU) frame's origin in
+// the world, and the IMU's biases in its own frame (measurement = truth + bias + noise).
+struct ImuStateGt {
+  Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias_radps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_mps2 = Eigen::Vector3d::Zero();
+};
+
 // One camera tick of one robot. Images are owned by the frame (cv::Mat is reference-counted; sources
 // hand out freshly decoded or rendered buffers and never write them afterwards).
 struct SensorFrame {
@@ -34,6 +43,7 @@ struct SensorFrame {
   std::vector<ImuSample> imu;  // IMU samples with t in (previous frame t_ns, t_ns], oldest first
 
   std::optional<Eigen::Isometry3d> T_world_cam_gt;  // ground-truth pose of the (left) camera
+  std::optional<ImuStateGt> imu_state_gt;           // with T_world_cam_gt, from a source that knows it
 
   std::string image_path;  // where the image came from, for messages (empty for rendered frames)
 

@@ -82,5 +82,7 @@ Trajectory read_trajectory(const std::filesystem::path& path,
 // when the file cannot be written.
 void write_trajectory(const std::filesystem::path& path, const Trajectory& trajectory,
                       TrajectoryFormat format);
+// One line of write_trajectory's file for pose, newline included.
+std::string format_trajectory_line(const StampedPose& pose, TrajectoryFormat format);
 
 }  // namespace fleetslam::core
