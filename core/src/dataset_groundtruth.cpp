@@ -21,17 +21,50 @@ Eigen::Isometry3d interpolate_pose(const Eigen::Isometry3d& T_a, const Eigen::Is
   return T;
 }
 
-std::optional<Eigen::Isometry3d> pose_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns) {
+std::optional<TimeBracket> bracket_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns) {
   const auto after = std::lower_bound(trajectory.begin(), trajectory.end(), t_ns,
                                       [](const StampedPose& p, TimeNs t) { return p.t_ns < t; });
-  if (after != trajectory.end() && after->t_ns == t_ns) return after->T_world_body;
+  if (after != trajectory.end() && after->t_ns == t_ns) {
+    return TimeBracket{static_cast<std::size_t>(after - trajectory.begin()), 0.0};
+  }
   if (after == trajectory.begin() || after == trajectory.end()) return std::nullopt;
   const auto before = std::prev(after);
   // Both neighbours must be close: interpolating across a motion-capture drop-out would invent motion.
   if (t_ns - before->t_ns > max_gap_ns || after->t_ns - t_ns > max_gap_ns) return std::nullopt;
   const double s = static_cast<double>(t_ns - before->t_ns) / static_cast<double>(after->t_ns - before->t_ns);
-  return interpolate_pose(before->T_world_body, after->T_world_body, s);
+  return TimeBracket{static_cast<std::size_t>(before - trajectory.begin()), s};
 }
+
+Eigen::Isometry3d pose_at(const Trajectory& trajectory, const TimeBracket& at) {
+  if (at.s == 0.0) return trajectory[at.index].T_world_body;
+  return interpolate_pose(trajectory[at.index].T_world_body, trajectory[at.index + 1].T_world_body, at.s);
+}
+
+namespace {
+
+// EuRoC's state columns after the pose: velocity (3), gyro bias (3), accelerometer bias (3).
+constexpr std::size_t kStateColumns = 9;
+
+ImuStateGt state_of(const std::vector<double>& c) {
+  ImuStateGt state;
+  state.v_world_mps = Eigen::Vector3d(c[0], c[1], c[2]);
+  state.gyro_bias_radps = Eigen::Vector3d(c[3], c[4], c[5]);
+  state.accel_bias_mps2 = Eigen::Vector3d(c[6], c[7], c[8]);
+  return state;
+}
+
+// Linear between the two states around t (the biases walk slowly; the velocity is smooth at ground-truth
+// rates), exact at a stamp.
+ImuStateGt state_at(const std::vector<std::vector<double>>& columns, const TimeBracket& at) {
+  const ImuStateGt a = state_of(columns[at.index]);
+  if (at.s == 0.0) return a;
+  const ImuStateGt b = state_of(columns[at.index + 1]);
+  const auto mix = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& y) { return ((1.0 - at.s) * x + at.s * y).eval(); };
+  return ImuStateGt{mix(a.v_world_mps, b.v_world_mps), mix(a.gyro_bias_radps, b.gyro_bias_radps),
+                    mix(a.accel_bias_mps2, b.accel_bias_mps2)};
+}
+
+}  // namespace
 
 void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
                         const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
@@ -44,13 +77,22 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
   // Real ground-truth files repeat stamps now and then; the TUM tools keep the last pose of a stamp.
   TrajectoryReadOptions options;
   options.duplicate_stamps = DuplicateStamps::kKeepLast;
-  const Trajectory trajectory = read_trajectory_file(file, options).trajectory;
+  options.keep_columns_after_pose = true;
+  const TrajectoryFile read = read_trajectory_file(file, options);
+  const Trajectory& trajectory = read.trajectory;
+  // EuRoC's state ground truth (body poses with velocity and biases on every line) gives the frames the
+  // IMU's state as well; camera poses do not (their velocity would be the camera's).
+  const bool states = T_body_cam && !read.columns_after_pose.empty() &&
+                      std::all_of(read.columns_after_pose.begin(), read.columns_after_pose.end(),
+                                  [](const std::vector<double>& c) { return c.size() >= kStateColumns; });
   const TimeNs max_gap_ns = seconds_to_ns(config.max_groundtruth_gap_s);
   std::size_t covered = 0;
   for (FrameEntry& entry : sequence.entries) {
-    std::optional<Eigen::Isometry3d> T_world_body = pose_at(trajectory, entry.t_ns, max_gap_ns);
-    if (!T_world_body) continue;
-    entry.T_world_cam_gt = T_body_cam ? *T_world_body * *T_body_cam : *T_world_body;
+    const std::optional<TimeBracket> at = bracket_at(trajectory, entry.t_ns, max_gap_ns);
+    if (!at) continue;
+    const Eigen::Isometry3d T_world_body = pose_at(trajectory, *at);
+    entry.T_world_cam_gt = T_body_cam ? T_world_body * *T_body_cam : T_world_body;
+    if (states) entry.imu_state_gt = state_at(read.columns_after_pose, *at);
     ++covered;
   }
   if (covered == 0 && !sequence.entries.empty()) {

@@ -57,9 +57,16 @@ std::vector<ImageRow> drop_absent_images(std::vector<ImageRow> rows, bool skip_a
 // Translation linear, rotation slerp, s in [0, 1].
 Eigen::Isometry3d interpolate_pose(const Eigen::Isometry3d& T_a, const Eigen::Isometry3d& T_b, double s);
 
-// Pose at t: an exact stamp, or interpolated between the poses on both sides when each is within
-// max_gap_ns of t; nullopt otherwise. The trajectory is sorted by time.
-std::optional<Eigen::Isometry3d> pose_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns);
+// Where t falls in a trajectory sorted by time: on pose `index` (s == 0, an exact stamp) or between poses
+// index and index + 1 at fraction s in (0, 1) when both are within max_gap_ns of t; nullopt otherwise.
+struct TimeBracket {
+  std::size_t index = 0;
+  double s = 0.0;
+};
+std::optional<TimeBracket> bracket_at(const Trajectory& trajectory, TimeNs t_ns, TimeNs max_gap_ns);
+
+// The pose there: the stamp's, or interpolated (interpolate_pose).
+Eigen::Isometry3d pose_at(const Trajectory& trajectory, const TimeBracket& at);
 
 // ---- frames ---------------------------------------------------------------------------------------
 
@@ -77,6 +84,7 @@ struct FrameEntry {
   ImageRef right;
   ImageRef depth;
   std::optional<Eigen::Isometry3d> T_world_cam_gt;
+  std::optional<ImuStateGt> imu_state_gt;
 };
 
 enum class ImageKind { kColour, kGray };

@@ -127,6 +127,7 @@ class RecordedSource final : public FrameSource {
     frame.robot_id = config_.robot_id;
     frame.t_ns = entry.t_ns;
     frame.T_world_cam_gt = entry.T_world_cam_gt;
+    frame.imu_state_gt = entry.imu_state_gt;
     frame.image_path = entry.image.path.string();
     return frame;
   }

@@ -213,13 +213,15 @@ StampedPose parse_tum_line(const Line& line, const std::vector<std::string_view>
   return {parse_tum_stamp(f[0], where, nanoseconds), pose_from_quaternion(Eigen::Vector3d(v[0], v[1], v[2]), q, where)};
 }
 
-StampedPose parse_euroc_line(const Line& line, const std::vector<std::string_view>& f, const std::string& where) {
+StampedPose parse_euroc_line(const Line& line, const std::vector<std::string_view>& f, const std::string& where,
+                             std::vector<double>& after_pose) {
   if (f.size() < 8) {
     throw InputError(where, column_count_message(line, f.size(), "at least 8: t_ns px py pz qw qx qy qz"));
   }
   std::array<double, 7> v{};
   for (std::size_t i = 0; i < 7; ++i) v[i] = parse_value(f[i + 1], where);
-  for (std::size_t i = 8; i < f.size(); ++i) parse_value(f[i], where);  // ignored, but must be numbers
+  after_pose.clear();
+  for (std::size_t i = 8; i < f.size(); ++i) after_pose.push_back(parse_value(f[i], where));  // must be numbers
   const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
   return {parse_euroc_stamp(f[0], where), pose_from_quaternion(Eigen::Vector3d(v[0], v[1], v[2]), q, where)};
 }
@@ -375,16 +377,26 @@ TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOp
   DataLineReader reader(file);
   Line line;
   TimeNs kitti_index = 0;
+  const bool keep_after = options.keep_columns_after_pose && out.format == TrajectoryFormat::kEuroc;
+  std::vector<double> after_pose;
   while (reader.next(line)) {
     const std::string where = at_line(reader.file(), line.number);
     const auto fields = split_fields(line.text, where);
     StampedPose pose;
     switch (out.format) {
       case TrajectoryFormat::kTum: pose = parse_tum_line(line, fields, where, tum_nanoseconds); break;
-      case TrajectoryFormat::kEuroc: pose = parse_euroc_line(line, fields, where); break;
+      case TrajectoryFormat::kEuroc: pose = parse_euroc_line(line, fields, where, after_pose); break;
       case TrajectoryFormat::kKitti: pose = parse_kitti_line(line, fields, where, kitti_index++); break;
     }
+    const std::size_t before = out.trajectory.size();
+    const std::size_t duplicates = out.duplicates_dropped;
     append_pose(out, pose, where, line.number, options.duplicate_stamps);
+    if (!keep_after) continue;
+    if (out.trajectory.size() > before) {
+      out.columns_after_pose.push_back(after_pose);
+    } else if (out.duplicates_dropped > duplicates && options.duplicate_stamps == DuplicateStamps::kKeepLast) {
+      out.columns_after_pose.back() = after_pose;
+    }
   }
   if (out.trajectory.empty()) {
     throw InputError(reader.file(), "no poses in the file (empty or only comments)");

@@ -236,9 +236,9 @@ std::vector<std::vector<std::string>> csv_rows(const std::filesystem::path& file
   return rows;
 }
 
-// Frames that carry the IMU state (as the simulator's do) get EuRoC's 17-column state ground truth, exact;
-// the reader takes its poses as from the 8-column file. One posed frame without a state, or a rig without
-// an IMU, gives the 8 pose columns.
+// Frames that carry the IMU state (as the simulator's do) get EuRoC's 17-column state ground truth, exact,
+// and the reader gives it back with the same poses as from the 8-column file. One posed frame without a
+// state, or a rig without an IMU, gives the 8 pose columns.
 TEST(Euroc, TheImuStateOfTheFramesIsWrittenAsEurocsStateGroundTruth) {
   TempDir dir;
   std::vector<SensorFrame> frames = make_frames(8);
@@ -279,11 +279,45 @@ TEST(Euroc, TheImuStateOfTheFramesIsWrittenAsEurocsStateGroundTruth) {
   const std::vector<SensorFrame> poses = read_all(*open(dir / "poses"));
   ASSERT_EQ(full.size(), poses.size());
   for (std::size_t i = 0; i < full.size(); ++i) {
+    SCOPED_TRACE(i);
     ASSERT_EQ(full[i].T_world_cam_gt.has_value(), poses[i].T_world_cam_gt.has_value());
-    if (full[i].T_world_cam_gt) {
-      EXPECT_TRUE(full[i].T_world_cam_gt->isApprox(*poses[i].T_world_cam_gt, 1e-15));
-    }
+    EXPECT_FALSE(poses[i].imu_state_gt.has_value());
+    ASSERT_EQ(full[i].imu_state_gt.has_value(), full[i].T_world_cam_gt.has_value());
+    if (!full[i].T_world_cam_gt) continue;
+    EXPECT_TRUE(full[i].T_world_cam_gt->isApprox(*poses[i].T_world_cam_gt, 1e-15));
+    EXPECT_EQ(full[i].imu_state_gt->v_world_mps, frames[i].imu_state_gt->v_world_mps);
+    EXPECT_EQ(full[i].imu_state_gt->gyro_bias_radps, frames[i].imu_state_gt->gyro_bias_radps);
+    EXPECT_EQ(full[i].imu_state_gt->accel_bias_mps2, frames[i].imu_state_gt->accel_bias_mps2);
   }
+
+  // A given state file of body poses between the frames: states interpolated as the poses are. Given as
+  // camera poses, the states are not the camera's: none.
+  const auto given = dir / "states.csv";
+  std::string text = "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+  for (int k = 0; k < kFrames; ++k) {
+    const TimeNs t = kT0 + k * kPeriod - kPeriod / 4;
+    const double x = k;
+    text += std::to_string(t) + ",0,0,0,1,0,0,0," + std::to_string(x) + ",0,0,0," + std::to_string(2 * x) + ",0,0,0," +
+            std::to_string(-x) + "\n";
+  }
+  test::write_file(given, text);
+  DatasetConfig config;
+  config.groundtruth_file = given.string();
+  config.groundtruth_in_body_frame = true;
+  config.max_groundtruth_gap_s = 0.05;  // the rows are a camera period apart
+  const std::vector<SensorFrame> interpolated = read_all(*open(dir / "poses", config));
+  ASSERT_EQ(interpolated.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_FALSE(interpolated.back().imu_state_gt.has_value());  // after the last state
+  for (int k = 0; k + 1 < kFrames; ++k) {
+    SCOPED_TRACE(k);
+    ASSERT_TRUE(interpolated[static_cast<std::size_t>(k)].imu_state_gt.has_value());
+    const ImuStateGt& state = *interpolated[static_cast<std::size_t>(k)].imu_state_gt;
+    EXPECT_NEAR(state.v_world_mps.x(), k + 0.25, 1e-12);
+    EXPECT_NEAR(state.gyro_bias_radps.y(), 2 * (k + 0.25), 1e-12);
+    EXPECT_NEAR(state.accel_bias_mps2.z(), -(k + 0.25), 1e-12);
+  }
+  config.groundtruth_in_body_frame = false;
+  for (const SensorFrame& frame : read_all(*open(dir / "poses", config))) EXPECT_FALSE(frame.imu_state_gt.has_value());
 
   frames[7].imu_state_gt.reset();
   write_sequence(dir / "one_missing", frames);

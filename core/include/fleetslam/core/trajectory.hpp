@@ -53,6 +53,8 @@ enum class DuplicateStamps { kError, kKeepFirst, kKeepLast };
 struct TrajectoryReadOptions {
   std::optional<TrajectoryFormat> format;  // nullopt: detect_trajectory_format
   DuplicateStamps duplicate_stamps = DuplicateStamps::kError;
+  // EuRoC: keep each line's numbers after the quaternion (state ground truth: velocity and biases).
+  bool keep_columns_after_pose = false;
 };
 
 // A trajectory with what reading it found out.
@@ -61,6 +63,8 @@ struct TrajectoryFile {
   TrajectoryFormat format = TrajectoryFormat::kTum;
   std::size_t duplicates_dropped = 0;
   std::size_t first_duplicate_line = 0;  // 1-based; 0 when there was none
+  // With keep_columns_after_pose, for a EuRoC file: one entry per pose (of the line kept); empty otherwise.
+  std::vector<std::vector<double>> columns_after_pose;
 };
 
 // Reads a trajectory. Throws InputError "file:line: why" on malformed or truncated lines, wrong column
