@@ -162,6 +162,13 @@ std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<
       }
     }
   }
+  // The verified loop itself, even when the fusion left the two keyframes no covisibility link (a loop
+  // whose inliers lie on the loop keyframe's neighbours): without it nothing in the graph holds the
+  // correction, and the optimum is the drifted poses.
+  const auto [current, loop] = loop_pair;
+  if (current != loop && before.count(current) > 0 && before.count(loop) > 0) {
+    add(current, loop, corrected.at(current).inverse() * corrected.at(loop));
+  }
   return edges;
 }
 

@@ -504,6 +504,26 @@ TEST(EssentialGraph, EachPairOfKeyframesIsOneEdge) {
   }
   EXPECT_EQ(loop_links, 1);
 
+  // A loop keyframe the fusion left unlinked to the current one (its own points not fused): the loop's
+  // edge all the same, at the corrected relative pose.
+  Frame apart = make_frame(60, 2);
+  apart.t_ns = 10;
+  apart.T_world_cam = at_x(3.0);
+  const KeyframeId unlinked = mapper.insert_keyframe(apart, 0, false, map, nullptr);
+  ASSERT_EQ(map.keyframe(unlinked)->connections.count(ids[2]), 0u);
+  std::map<KeyframeId, Eigen::Isometry3d> before4 = before;
+  before4[unlinked] = apart.T_world_cam.value();
+  std::map<KeyframeId, Eigen::Isometry3d> corrected4 = corrected;
+  corrected4[unlinked] = before4[unlinked];
+  edges = essential_graph_edges(map, before4, corrected4, {ids[2]}, {{ids[2], {parent2}}}, 1000, {ids[2], unlinked});
+  loop_links = 0;
+  for (const PoseGraphEdge& e : edges) {
+    if (pair_of(e) != std::make_pair(std::min(unlinked, ids[2]), std::max(unlinked, ids[2]))) continue;
+    ++loop_links;
+    EXPECT_TRUE(e.T_i_j.isApprox(corrected4[e.i].inverse() * corrected4[e.j], 1e-12));
+  }
+  EXPECT_EQ(loop_links, 1);
+
   // An earlier loop's edge stays in the graph, at its uncorrected relative pose, weak as its link may be.
   ASSERT_TRUE(map.add_loop_edge(ids[0], ids[2]));
   EXPECT_FALSE(map.add_loop_edge(ids[0], ids[0]));

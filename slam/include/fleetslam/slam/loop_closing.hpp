@@ -226,9 +226,11 @@ bool optimize_pose_graph(std::map<KeyframeId, Eigen::Isometry3d>& T_world_cam, c
 // `corrected`: after the loop group moved rigidly), each pair of keyframes at most once: spanning-tree
 // edges (parent, child), earlier loops' edges (Keyframe::loop_edges) and covisibility links of weight >=
 // strong_covisibility at their uncorrected relative poses, and loop links (links of a `group` keyframe that it did not have in `old_connections`)
-// at their corrected ones: those of weight >= strong_covisibility, and the link of `loop_pair` (the current
-// and the loop keyframe) whatever its weight, as in ORB-SLAM (a link of a few fused points would weigh as
-// much as a strong one). A tree edge that is also a strong link counts once, as in ORB-SLAM.
+// at their corrected ones: those of weight >= strong_covisibility, and `loop_pair` (the current and the
+// loop keyframe) whatever its weight (a link of a few fused points would weigh as much as a strong one),
+// and even without a link: ORB-SLAM adds that edge only when the fusion linked the two, and a verified loop
+// whose inliers lie on the loop keyframe's neighbours then has no edge that holds the correction. A tree
+// edge that is also a strong link counts once, as in ORB-SLAM.
 std::vector<PoseGraphEdge> essential_graph_edges(const Map& map, const std::map<KeyframeId, Eigen::Isometry3d>& before,
                                                  const std::map<KeyframeId, Eigen::Isometry3d>& corrected,
                                                  const std::set<KeyframeId>& group,
