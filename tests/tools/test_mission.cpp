@@ -131,6 +131,73 @@ TEST(MissionPlanner, UnreachableGoalIsGivenUpThenTheNextOneIsPlanned) {
   EXPECT_LT((command_for(commands, 0)->path_world.back() - Eigen::Vector2d(3.0, 1.0)).norm(), 0.15);
 }
 
+// A waypoint inside a carton: the planner moves the goal to the nearest free spot, farther from it than
+// goal_reached_m; a robot that gets there has reached its goal (it used to be sent there again and again).
+TEST(MissionPlanner, AGoalMovedOffAnObstacleIsReachedAtTheSpotItWasMovedTo) {
+  core::PointCloud map = room(6.0, 4.0);
+  add_box(map, 3.9, 0.9, 4.1, 1.1, 0.0, 0.5);
+  PlanningConfig p = planning();
+  p.path.goal_snap_radius_m = 0.5;
+  MissionPlanner mission(waypoints_mission(), p, {MissionRobot{"a", true, {{4.0, 1.0}, {4.0, 3.0}}}});
+  std::vector<PathCommand> commands = mission.update(0.5, map, {at(1.0, 1.0)});
+  const PathCommand* c = command_for(commands, 0);
+  ASSERT_NE(c, nullptr);
+  ASSERT_FALSE(c->path_world.empty()) << mission.reports()[0].status;
+  const Eigen::Vector2d end = c->path_world.back();
+  ASSERT_GT((end - Eigen::Vector2d(4.0, 1.0)).norm(), mission.mission().goal_reached_m);
+  commands = mission.update(1.5, map, {at(end.x(), end.y(), 0.0, true)});
+  EXPECT_EQ(mission.reports()[0].goals_reached, 1);
+  ASSERT_FALSE(mission.reports()[0].events.empty());
+  EXPECT_NE(mission.reports()[0].events.back().find("reached at the free spot"), std::string::npos)
+      << mission.reports()[0].events.back();
+  c = command_for(commands, 0);
+  ASSERT_NE(c, nullptr);
+  EXPECT_LT((c->path_world.back() - Eigen::Vector2d(4.0, 3.0)).norm(), 0.15) << "on to the next waypoint";
+}
+
+// Paths driven to their end with the estimate 0.5 m off (the controller steers on the true pose): each is a
+// failure, and the goal is given up after max_plan_failures instead of being driven to for ever.
+TEST(MissionPlanner, PathsThatEndShortOfTheGoalAreFailures) {
+  const core::PointCloud map = room(6.0, 4.0);
+  MissionConfig m = waypoints_mission();
+  m.max_plan_failures = 3;
+  MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {{4.0, 1.0}, {4.0, 3.0}}}});
+  ASSERT_NE(command_for(mission.update(0.5, map, {at(1.0, 1.0)}), 0), nullptr);
+  for (int i = 0; i < m.max_plan_failures; ++i) {
+    const std::vector<PathCommand> commands = mission.update(1.5 + i, map, {at(4.0, 1.5, 0.0, true)});
+    EXPECT_EQ(mission.reports()[0].plan_failures, i + 1);
+    ASSERT_NE(command_for(commands, 0), nullptr) << "a new path each time";
+  }
+  EXPECT_EQ(mission.reports()[0].goals_reached, 0);
+  EXPECT_EQ(mission.reports()[0].goals_given_up, 1);
+  bool short_event = false;
+  for (const std::string& e : mission.reports()[0].events) short_event = short_event || e.find("short of its goal") != std::string::npos;
+  EXPECT_TRUE(short_event);
+  ASSERT_TRUE(mission.goal_of(0).has_value());
+  EXPECT_TRUE(mission.goal_of(0)->isApprox(Eigen::Vector2d(4.0, 3.0)));
+}
+
+// Two robots swapping ends of a corridor too narrow to pass: b's conflict with a cannot be resolved, so b is
+// held where it stands (no path), and a is planned around b's place (here: no path to its goal, which b
+// stands on). No robot is sent along a path that comes within the separation of another.
+TEST(MissionPlanner, ARobotWhoseConflictIsUnresolvedIsHeldAndTheOthersKeepClearOfIt) {
+  const core::PointCloud map = room(6.0, 0.9);
+  PlanningConfig p = planning();
+  MissionPlanner mission(waypoints_mission(), p,
+                         {MissionRobot{"a", true, {{5.5, 0.45}}}, MissionRobot{"b", true, {{0.5, 0.45}}}});
+  const std::vector<RobotObservation> seen = {at(0.5, 0.45), at(5.5, 0.45, M_PI)};
+  const std::vector<PathCommand> commands = mission.update(0.5, map, seen);
+  const PathCommand* b = command_for(commands, 1);
+  ASSERT_NE(b, nullptr);
+  EXPECT_TRUE(b->path_world.empty()) << "b is held";
+  EXPECT_NE(mission.reports()[1].status.find("held"), std::string::npos) << mission.reports()[1].status;
+  const PathCommand* a = command_for(commands, 0);
+  ASSERT_NE(a, nullptr);
+  for (const Eigen::Vector2d& q : a->path_world) {
+    EXPECT_GE((q - Eigen::Vector2d(5.5, 0.45)).norm(), p.deconfliction.separation_m - 1e-9) << q.transpose();
+  }
+}
+
 TEST(MissionPlanner, LostRobotDrivesBackAlongItsTrailOnce) {
   const core::PointCloud map = room(6.0, 4.0);
   MissionPlanner mission(waypoints_mission(), planning(), {MissionRobot{"a", true, {{5.0, 1.0}}}});

@@ -164,6 +164,7 @@ void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::stri
   if (mission_.kind == MissionKind::kExplore) abandoned_goals_world_.push_back(*s.goal_world);
   if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
   s.goal_world.reset();
+  s.path_goal_world.reset();
   s.failures_for_goal = 0;
 }
 
@@ -190,10 +191,18 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       event(r, t_s, "tracking back: planning again");
     }
     const Eigen::Vector2d position = seen.pose_world.xy();
-    if (s.goal_world && (position - *s.goal_world).norm() <= mission_.goal_reached_m) {
+    const auto near = [&](const std::optional<Eigen::Vector2d>& goal) {
+      return goal && (position - *goal).norm() <= mission_.goal_reached_m;
+    };
+    if (s.goal_world && (near(s.goal_world) || near(s.path_goal_world))) {
       ++report.goals_reached;
-      char what[96];
-      std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached", s.goal_world->x(), s.goal_world->y());
+      char what[128];
+      if (near(s.goal_world)) {
+        std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached", s.goal_world->x(), s.goal_world->y());
+      } else {
+        std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached at the free spot %.2f m from it", s.goal_world->x(),
+                      s.goal_world->y(), (*s.path_goal_world - *s.goal_world).norm());
+      }
       event(r, t_s, what);
       if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
       if (mission_.kind == MissionKind::kExplore) reached_goals_world_.push_back(*s.goal_world);
@@ -203,8 +212,22 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
         look_towards(t_s, r, seen.pose_world, s.frontier_centroid_world, looks);
       }
       s.goal_world.reset();
+      s.path_goal_world.reset();
       s.failures_for_goal = 0;
       s.has_path = false;
+    }
+    // A solved path driven to its end with the estimate not there (the controller follows the path on the
+    // robot's true pose; the estimate is off by more than goal_reached_m): a failure for the goal, or the
+    // robot would drive there again at every update.
+    if (s.goal_world && s.has_path && s.path_goal_world && seen.path_done) {
+      ++report.plan_failures;
+      char what[128];
+      std::snprintf(what, sizeof(what), "path done %.2f m short of its goal (%.2f, %.2f)",
+                    (position - *s.path_goal_world).norm(), s.goal_world->x(), s.goal_world->y());
+      event(r, t_s, what);
+      s.has_path = false;
+      s.path_goal_world.reset();
+      if (++s.failures_for_goal >= mission_.max_plan_failures) give_up_goal(t_s, r, "its paths end short of it");
     }
     if (s.goal_world && mission_.kind == MissionKind::kExplore) {
       // The frontier it was sent to has been seen (by it or another robot): a new one.
@@ -222,6 +245,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
         ++report.goals_reached;
         event(r, t_s, "its frontier has been explored");
         s.goal_world.reset();
+        s.path_goal_world.reset();
         s.failures_for_goal = 0;
         s.has_path = false;
       }
@@ -448,54 +472,99 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
   // The robots that need a path are deconflicted among themselves (by priority); the others (standing,
   // or keeping a path that is still good, which a new plan would only make them turn away from) are
   // obstacles where they are, and those keeping a path are also deconflicted against along the rest of
-  // it (committed, of higher priority), so that a new path does not cross theirs in time.
-  planners::OccupancyGrid grid = planning_grid_;
-  std::vector<planners::Disk> standing;
-  std::vector<planners::CommittedPath> committed;
-  std::vector<std::size_t> order;
+  // it (committed, of higher priority), so that a new path does not cross theirs in time. A robot boxed
+  // in, or whose conflict stays unresolved, stops and stands (held): the others are planned again around
+  // it, those keeping a path that passes it too. Each pass takes at least one robot out of the planning
+  // or one committed path into it, so the passes end.
+  enum class Role { kNone, kStanding, kCommitted, kQuery, kHeld };
+  std::vector<Role> role(robots_.size(), Role::kNone);
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (needs_plan[r]) {
-      order.push_back(r);
-      continue;
+      role[r] = Role::kQuery;
+    } else if (robots_[r].ground && robots[r].has_pose) {  // a free rig blocks no floor; nor does one nowhere yet
+      role[r] = state_[r].has_path && !state_[r].path_world.empty() ? Role::kCommitted : Role::kStanding;
     }
-    if (!robots_[r].ground || !robots[r].has_pose) continue;  // a free rig blocks no floor; nor does one nowhere yet
-    // Marked occupied, the disk is then inflated by the robot radius: centres stay separation_m apart.
+  }
+  const auto rest_of_path = [&](std::size_t r) {
     const Eigen::Vector2d position = robots[r].pose_world.xy();
-    standing.push_back({position,
-                        std::max(0.0, planning_.deconfliction.separation_m - planning_grid_.config().robot_radius_m)});
-    const RobotMission& s = state_[r];
-    if (s.has_path && !s.path_world.empty()) {
-      std::vector<Pose2d> rest{robots[r].pose_world};
-      rest.insert(rest.end(), s.path_world.begin() + static_cast<std::ptrdiff_t>(nearest_pose(s.path_world, position)),
-                  s.path_world.end());
-      committed.push_back({static_cast<int>(r), std::move(rest), position});
-    }
-  }
-  if (!standing.empty()) grid.block(standing);
-  std::vector<planners::RobotQuery> queries;
-  std::vector<std::size_t> queried;
-  for (std::size_t r : order) {
+    const std::vector<Pose2d>& path = state_[r].path_world;
+    std::vector<Pose2d> rest{robots[r].pose_world};
+    rest.insert(rest.end(), path.begin() + static_cast<std::ptrdiff_t>(nearest_pose(path, position)), path.end());
+    return rest;
+  };
+  const auto hold = [&](std::size_t r, const std::string& why) {
     RobotMission& s = state_[r];
-    const std::optional<Eigen::Vector2d> start =
-        planners::nearest_traversable(grid, robots[r].pose_world.xy(), mission_.start_snap_radius_m, planning_.path.unknown_cells);
-    if (!start) {
-      ++reports_[r].plan_failures;
-      reports_[r].plan_log.push_back({t_s, "start_invalid", *s.goal_world, {}});
-      reports_[r].status = "boxed in: no free cell near it";
-      if (++s.failures_for_goal >= mission_.max_plan_failures) give_up_goal(t_s, r, "the robot is boxed in");
-      commands.push_back({r, {}});
-      s.has_path = false;
+    role[r] = Role::kHeld;
+    s.has_path = false;
+    s.path_goal_world.reset();
+    commands.push_back({r, {}});
+    reports_[r].status = why;
+    // A path kept by another robot that passes where this one now stands is planned again.
+    const double separation = planning_.deconfliction.separation_m;
+    for (std::size_t c = 0; c < robots_.size(); ++c) {
+      if (role[c] != Role::kCommitted || !state_[c].goal_world) continue;
+      for (const Pose2d& pose : rest_of_path(c)) {
+        if ((pose.xy() - robots[r].pose_world.xy()).norm() >= separation) continue;
+        role[c] = Role::kQuery;
+        event(c, t_s, "its path passes " + robots_[r].name + ", who stopped: planning again");
+        break;
+      }
+    }
+  };
+  for (;;) {
+    // Marked occupied, each disk is then inflated by the robot radius: centres stay separation_m apart.
+    const double radius = std::max(0.0, planning_.deconfliction.separation_m - planning_grid_.config().robot_radius_m);
+    planners::OccupancyGrid grid = planning_grid_;
+    std::vector<planners::Disk> standing;
+    std::vector<planners::CommittedPath> committed;
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      if (role[r] == Role::kNone || role[r] == Role::kQuery || !robots[r].has_pose) continue;
+      standing.push_back({robots[r].pose_world.xy(), radius});
+      if (role[r] == Role::kCommitted) committed.push_back({static_cast<int>(r), rest_of_path(r), robots[r].pose_world.xy()});
+    }
+    if (!standing.empty()) grid.block(standing);
+    std::vector<planners::RobotQuery> queries;
+    std::vector<std::size_t> queried;
+    bool boxed_in = false;
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      if (role[r] != Role::kQuery) continue;
+      RobotMission& s = state_[r];
+      const std::optional<Eigen::Vector2d> start =
+          planners::nearest_traversable(grid, robots[r].pose_world.xy(), mission_.start_snap_radius_m, planning_.path.unknown_cells);
+      if (!start) {
+        ++reports_[r].plan_failures;
+        if (s.goal_world) reports_[r].plan_log.push_back({t_s, "start_invalid", *s.goal_world, {}});
+        hold(r, "boxed in: no free cell near it");
+        if (s.goal_world && ++s.failures_for_goal >= mission_.max_plan_failures) give_up_goal(t_s, r, "the robot is boxed in");
+        boxed_in = true;
+        continue;
+      }
+      Pose2d pose = robots[r].pose_world;
+      pose.x_m = start->x();
+      pose.y_m = start->y();
+      queries.push_back({static_cast<int>(r), pose, *s.goal_world});
+      queried.push_back(r);
+    }
+    if (boxed_in) continue;  // it stands now: the others around it
+    if (queries.empty()) return;
+    const planners::Deconflicter deconflicter(planning_.deconfliction, planning_.path, logger_);
+    const planners::DeconflictionResult result = deconflicter.plan(grid, queries, committed);
+    if (!result.conflicts.empty()) {
+      for (const planners::Conflict& c : result.conflicts) {
+        const auto b = static_cast<std::size_t>(c.robot_b);
+        const std::string& other = robots_[static_cast<std::size_t>(c.robot_a)].name;
+        event(b, t_s, "path conflict with " + other + " left unresolved: held where it is");
+        hold(b, "held: its path conflicted with " + other + "'s");
+      }
       continue;
     }
-    Pose2d pose = robots[r].pose_world;
-    pose.x_m = start->x();
-    pose.y_m = start->y();
-    queries.push_back({static_cast<int>(r), pose, *s.goal_world});
-    queried.push_back(r);
+    apply_plans(t_s, queried, result, commands);
+    return;
   }
-  if (queries.empty()) return;
-  const planners::Deconflicter deconflicter(planning_.deconfliction, planning_.path, logger_);
-  const planners::DeconflictionResult result = deconflicter.plan(grid, queries, committed);
+}
+
+void MissionPlanner::apply_plans(double t_s, const std::vector<std::size_t>& queried,
+                                 const planners::DeconflictionResult& result, std::vector<PathCommand>& commands) {
   for (std::size_t q = 0; q < queried.size(); ++q) {
     const std::size_t r = queried[q];
     RobotMission& s = state_[r];
@@ -504,6 +573,7 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
     report.plan_log.push_back({t_s, planners::to_string(plan.status), *s.goal_world, thinned(plan.path_world, 60)});
     const bool usable = plan.status == planners::PlanStatus::kSolved ||
                         (plan.status == planners::PlanStatus::kApproximate && !plan.path_world.empty());
+    s.path_goal_world.reset();
     if (usable) {
       ++report.plans;
       if (!plan.solved()) ++report.plan_failures;
@@ -515,6 +585,7 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
       }
       s.path_world = plan.path_world;
       s.has_path = true;
+      if (plan.solved()) s.path_goal_world = plan.goal_world;
       commands.push_back({r, xy_of(plan.path_world)});
       char status[96];
       std::snprintf(status, sizeof(status), "to (%.2f, %.2f), %.1f m path", s.goal_world->x(), s.goal_world->y(), plan.length_m);
@@ -528,10 +599,6 @@ void MissionPlanner::plan(double t_s, const std::vector<RobotObservation>& robot
     if (++s.failures_for_goal >= mission_.max_plan_failures) {
       give_up_goal(t_s, r, std::string("no path (") + planners::to_string(plan.status) + ")");
     }
-  }
-  for (const planners::Conflict& c : result.conflicts) {
-    event(static_cast<std::size_t>(c.robot_b), t_s,
-          "path conflict with " + robots_[static_cast<std::size_t>(c.robot_a)].name + " left unresolved");
   }
 }
 

@@ -11,7 +11,9 @@
 // and plans again when a robot needs a new path, its path is blocked in the new map, or it finished
 // short of its goal. The robots that need a path are planned together by priority (their order) so that
 // their paths do not conflict; the other robots (standing, or keeping a path that is still clear) are
-// obstacles where they are. A goal that fails to plan
+// obstacles where they are. A robot whose conflict deconfliction leaves unresolved is held where it is
+// (stopped; an obstacle the others are planned around, as is a boxed-in robot) and planned again at the
+// next update. A goal that fails to plan, or whose path ends with the robot's estimate short of it,
 // max_plan_failures times is given up and reported; a robot that lost tracking drives back along its
 // trail (lost_backtrack_m) and waits there until its agent relocalises. Nothing here throws for a bad map
 // or an unreachable goal: it is all in the reports (a map whose extent needs more than the grid's
@@ -26,6 +28,7 @@
 
 #include "fleetslam/core/log.hpp"
 #include "fleetslam/core/point_cloud.hpp"
+#include "fleetslam/planners/deconfliction.hpp"
 #include "fleetslam/planners/occupancy_grid.hpp"
 #include "fleetslam/planners/planner.hpp"
 #include "fleetslam/runner/run_config.hpp"
@@ -100,6 +103,9 @@ class MissionPlanner {
  private:
   struct RobotMission {
     std::optional<Eigen::Vector2d> goal_world;
+    // Where its solved path ends: the goal, or the free spot the planner moved a goal in an obstacle's
+    // margin to (PathPlannerConfig::goal_snap_radius_m); reaching either reaches the goal.
+    std::optional<Eigen::Vector2d> path_goal_world;
     // Explore: where the frontier of its goal is (the goal itself, or the centroid a viewpoint looks at).
     Eigen::Vector2d frontier_world = Eigen::Vector2d::Zero();
     Eigen::Vector2d frontier_centroid_world = Eigen::Vector2d::Zero();  // explore: its frontier's centroid
@@ -132,6 +138,9 @@ class MissionPlanner {
   bool path_blocked(std::size_t robot, const RobotObservation& observation) const;
   void plan(double t_s, const std::vector<RobotObservation>& robots, const std::vector<bool>& needs_plan,
             std::vector<PathCommand>& commands);
+  // The deconflicted plans of the `queried` robots (result.plans in their order) become their paths.
+  void apply_plans(double t_s, const std::vector<std::size_t>& queried, const planners::DeconflictionResult& result,
+                   std::vector<PathCommand>& commands);
   void give_up_goal(double t_s, std::size_t robot, const std::string& why);
   void event(std::size_t robot, double t_s, const std::string& what);
 
