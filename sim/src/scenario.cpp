@@ -121,6 +121,22 @@ void check_sensors(const std::filesystem::path& file, std::size_t index, const R
     throw InputError(robot_key(file, index, "imu.enabled"),
                      "IMU samples are delivered with camera frames; a robot with its camera off cannot have an IMU");
   }
+  // The rig's calibration (EuRoC sensor.yaml, ORB-SLAM3 settings) needs positive noise figures: a zero
+  // one makes an export that no reader takes. Exact measurements are noise_enabled: false.
+  if (robot.imu.enabled) {
+    const core::ImuNoise& noise = robot.imu.noise;
+    const std::pair<const char*, double> figures[] = {{"imu.gyro_noise_density", noise.gyro_noise_density},
+                                                      {"imu.gyro_random_walk", noise.gyro_random_walk},
+                                                      {"imu.accel_noise_density", noise.accel_noise_density},
+                                                      {"imu.accel_random_walk", noise.accel_random_walk}};
+    for (const auto& [key, value] : figures) {
+      if (!(value > 0.0)) {
+        throw InputError(robot_key(file, index, key),
+                         "must be positive (the exported calibration states it; for exact IMU measurements set "
+                         "imu.noise_enabled: false)");
+      }
+    }
+  }
   const DepthNoiseConfig& depth = robot.camera.depth_noise;
   if (!(depth.min_depth_m < depth.max_depth_m)) {
     throw InputError(robot_key(file, index, "camera.depth_noise.max_depth_m"),

@@ -822,6 +822,11 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
             std::string::npos);
   EXPECT_NE(error_of(a + "camera: {enabled: false}, imu: {enabled: true}}\n").find("robots[0].imu.enabled"),
             std::string::npos);
+  // A zero noise figure would be exported in a calibration no reader takes (at the end of a generate).
+  EXPECT_NE(error_of(a + "imu: {gyro_random_walk: 0}}\n").find("robots[0].imu.gyro_random_walk: must be positive"),
+            std::string::npos);
+  EXPECT_NE(error_of(a + "imu: {accel_noise_density: 0, noise_enabled: false}}\n").find("robots[0].imu.accel_noise_density"),
+            std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: R&D}\n").find("robots[0].name: robot name 'R&D'"),
             std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nseed: 1000000000000001\nrobots:\n  - {name: a}\n").find("seed"), std::string::npos);
