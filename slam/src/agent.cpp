@@ -85,6 +85,7 @@ Agent::Impl::Impl(const AgentConfig& c, const core::SensorRig& r, core::Logger l
     if (config.loop_closing.enabled) {
       LoopClosingConfig loop_config = config.loop_closing;
       loop_config.pose_optimizer = config.tracking.pose_optimizer;
+      loop_config.bundle_adjustment = config.mapping.ba;
       loop_config.covisibility_min_weight = config.mapping.covisibility_min_weight;
       loop_closer.emplace(loop_config, logger);
     }

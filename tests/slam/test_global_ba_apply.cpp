@@ -132,5 +132,36 @@ TEST(GlobalBaApply, AFailedSolveChangesNothing) {
   EXPECT_TRUE(near(map.keyframe(problem->keyframe_ids[1])->T_world_cam, at(0.1)));
 }
 
+// Global BA classifies outliers with the agent's bundle-adjustment thresholds (mapping's `ba`, handed to
+// the loop closer), not with defaults of its own: on a map whose points do not fit their observations,
+// looser thresholds keep more observations.
+TEST(GlobalBaSolve, UsesTheAgentsChiSquareThresholds) {
+  std::vector<MapPointId> points;
+  Map map = make_map(4, points);
+  Frame& shifted = map.keyframe(2)->frame;  // six observations 8 px off the others
+  for (std::size_t i = 20; i < 26; ++i) {
+    shifted.uv[i].x() += 8.0;
+    shifted.u_right[i] += 8.0;
+  }
+  const auto outliers = [&](double chi2) {
+    LoopClosingConfig config;
+    config.bundle_adjustment.chi2_mono = chi2;
+    config.bundle_adjustment.chi2_stereo = chi2;
+    config.global_ba_rounds = 2;
+    const LoopCloser closer(config, core::null_logger());
+    const std::optional<GlobalBaProblem> problem = closer.prepare_global_ba(0, map);
+    EXPECT_TRUE(problem.has_value());
+    if (!problem) return -1;
+    const BaResult result = closer.solve_global_ba(*problem);
+    EXPECT_TRUE(result.ok);
+    int count = 0;
+    for (const bool o : result.outlier) count += o ? 1 : 0;
+    return count;
+  };
+  const int strict = outliers(0.1);
+  const int loose = outliers(1000.0);
+  EXPECT_GT(strict, loose);
+}
+
 }  // namespace
 }  // namespace fleetslam::slam

@@ -71,13 +71,17 @@ struct LoopClosingConfig {
   int strong_covisibility = 100;   // shared points for a covisibility edge of the essential graph
   int pose_graph_iterations = 20;
   bool global_ba = true;
-  int global_ba_iterations = 20;
+  int global_ba_rounds = 4;         // optimise, classify outliers, repeat
+  int global_ba_iterations = 20;    // per round
   std::int64_t seed = 0;
   BowMatchConfig matching;
   ProjectionSearchConfig search;   // guided matching and fusion
-  // Not read from this section: the agent sets them from its own (tracking's `optimizer`, mapping's
-  // covisibility_min_weight), so that loops verify poses and link keyframes as the rest of the agent does.
+  // Not read from this section: the agent sets them from its own (tracking's `optimizer`, mapping's `ba`
+  // and covisibility_min_weight), so that loops verify poses, adjust the map (chi-square thresholds,
+  // threads; global_ba_rounds and global_ba_iterations replace its counts) and link keyframes as the rest
+  // of the agent does.
   OptimizerConfig pose_optimizer;
+  OptimizerConfig bundle_adjustment;
   int covisibility_min_weight = 15;
 
   template <class V>
@@ -103,6 +107,7 @@ struct LoopClosingConfig {
     v("strong_covisibility", strong_covisibility, core::Limits<int>{1, 100000});
     v("pose_graph_iterations", pose_graph_iterations, core::Limits<int>{1, 1000});
     v("global_ba", global_ba);
+    v("global_ba_rounds", global_ba_rounds, core::Limits<int>{1, 20});
     v("global_ba_iterations", global_ba_iterations, core::Limits<int>{1, 1000});
     v("seed", seed, core::Limits<std::int64_t>{0});
     v("matching", matching);
