@@ -279,8 +279,10 @@ int LoopCloser::confirmations(const Keyframe& current, const std::vector<Keyfram
     if (n == nullptr) continue;
     Frame f = n->frame;
     f.map_points.assign(f.size(), kNoMapPoint);
-    const PoseResult pose = refine_on_points(std::move(f), loop.loop_points, (correction * n->T_world_cam).inverse(), map,
-                                             config_.search, config_.pose_optimizer);
+    // correct() moves every covisible neighbour but the root (the old side: the world is its camera).
+    const Eigen::Isometry3d T_world_cam = n->root ? n->T_world_cam : correction * n->T_world_cam;
+    const PoseResult pose = refine_on_points(std::move(f), loop.loop_points, T_world_cam.inverse(), map, config_.search,
+                                             config_.pose_optimizer);
     logger_->debug("loop {} of keyframe {}: neighbour {} finds {} inliers", loop.loop, current.id, id, pose.inliers);
     if (pose.ok && pose.inliers >= config_.min_confirm_inliers) ++confirmed;
   }

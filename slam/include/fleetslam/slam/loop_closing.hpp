@@ -172,15 +172,7 @@ class LoopCloser {
   const LoopClosingConfig& config() const { return config_; }
   const LoopRejections& rejections() const { return rejections_; }
 
- private:
-  struct Candidate {
-    KeyframeId id = -1;
-    double score = 0.0;
-  };
-  struct Group {
-    std::set<KeyframeId> keyframes;
-    int consistency = 0;
-  };
+  // A loop that passed verification (public for tests, as is the step below).
   struct Verified {
     KeyframeId loop = -1;
     double score = 0.0;
@@ -189,6 +181,20 @@ class LoopCloser {
     int ransac_inliers = 0;
     int inliers = 0;
     std::vector<MapPointId> loop_points;  // the candidate's neighbourhood points
+  };
+  // How many of `neighbours` find min_confirm_inliers loop points where the correction puts them: moved
+  // with the current keyframe, except the component's root, which the correction leaves where it is.
+  int confirmations(const Keyframe& current, const std::vector<KeyframeId>& neighbours, const Verified& loop,
+                    const Map& map) const;
+
+ private:
+  struct Candidate {
+    KeyframeId id = -1;
+    double score = 0.0;
+  };
+  struct Group {
+    std::set<KeyframeId> keyframes;
+    int consistency = 0;
   };
   struct Plausibility {
     bool ok = true;
@@ -205,9 +211,6 @@ class LoopCloser {
   Plausibility plausible(const Keyframe& current, const Eigen::Isometry3d& T_world_cam_corrected, KeyframeId loop,
                          const Map& map) const;
   void refuse_implausible(KeyframeId current, const Verified& loop, const Plausibility& plausibility);
-  // How many of `neighbours` find min_confirm_inliers loop points at their corrected poses.
-  int confirmations(const Keyframe& current, const std::vector<KeyframeId>& neighbours, const Verified& loop,
-                    const Map& map) const;
   void correct(KeyframeId current, const Verified& loop, Map& map, LoopEvent& event, std::set<KeyframeId>& moved) const;
 
   LoopClosingConfig config_;
