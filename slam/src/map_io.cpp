@@ -445,13 +445,31 @@ SavedMap MapAccess::decode(const std::string& data, const std::string& where) {
 // references to live keyframes, levels within the pyramid.
 constexpr int kMaxPyramidLevels = 64;
 
+// A finite rotation (orthonormal, determinant +1) and translation: what a diverged solve saved as NaN,
+// or a corrupt file repaired behind its checksum, is refused here instead of failing silently later.
+bool rigid(const Eigen::Isometry3d& T) {
+  if (!T.matrix().allFinite()) return false;
+  const Eigen::Matrix3d R = T.linear();
+  return (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6 && R.determinant() > 0.0 &&
+         T.matrix().row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1), 0.0);
+}
+
+bool all_finite(const std::vector<double>& values) {
+  return std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); });
+}
+
 std::string MapAccess::validate(const Map& m) {
   for (const auto& [id, kf] : m.keyframes_) {
     const std::string at = "keyframe " + std::to_string(id);
     if (id < 0 || id >= m.next_keyframe_id_) return at + ": id beyond the id counter";
     if (m.culled_.count(id) > 0) return at + ": both live and culled";
     if (m.components_.count(kf.component) == 0) return at + ": unknown component";
+    if (!rigid(kf.T_world_cam)) return at + ": pose is not a finite rigid transform";
     const Frame& f = kf.frame;
+    const bool uv_finite = std::all_of(f.uv.begin(), f.uv.end(), [](const Eigen::Vector2d& uv) { return uv.allFinite(); });
+    if (!uv_finite || !all_finite(f.depth_m) || !all_finite(f.u_right)) {
+      return at + ": a feature's coordinates or depth are not finite";
+    }
     // The pyramid is the one its levels and scale factor make (level predictions divide by the factor's
     // logarithm: a factor of 1 or NaN with more levels than one was undefined behaviour later).
     const ScalePyramid& pyramid = f.pyramid;
@@ -498,6 +516,10 @@ std::string MapAccess::validate(const Map& m) {
     const std::string at = "map point " + std::to_string(id);
     if (id < 0 || id >= m.next_point_id_) return at + ": id beyond the id counter";
     if (p.observations.empty()) return at + ": no observation";
+    if (!p.position.allFinite() || !p.normal.allFinite() || !std::isfinite(p.min_distance_m) ||
+        !std::isfinite(p.max_distance_m)) {
+      return at + ": position, viewing direction or distance range not finite";
+    }
     for (const auto& [kf_id, feature] : p.observations) {
       const auto kf = m.keyframes_.find(kf_id);
       if (kf == m.keyframes_.end()) return at + ": observed by an unknown keyframe";
@@ -511,6 +533,7 @@ std::string MapAccess::validate(const Map& m) {
     if (c.parent != -1 && m.keyframes_.count(c.parent) == 0 && m.culled_.count(c.parent) == 0) {
       return "culled keyframe " + std::to_string(id) + ": unknown parent";
     }
+    if (!rigid(c.T_parent_kf)) return "culled keyframe " + std::to_string(id) + ": pose is not a finite rigid transform";
   }
   return {};
 }

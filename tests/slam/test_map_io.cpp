@@ -6,10 +6,13 @@
 
 #include <gtest/gtest.h>
 
+
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <random>
 #include <set>
 #include <string>
@@ -376,6 +379,36 @@ TEST(MapIo, APyramidThatItsScaleFactorDoesNotMakeIsRefused) {
       ADD_FAILURE() << "loaded a pyramid with scale factor " << factor;
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find("pyramid"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A NaN or non-rigid keyframe pose, a NaN point or feature coordinate (a diverged solve, saved as it was)
+// is refused on load, naming the file and what is wrong.
+TEST(MapIo, NonFiniteOrNonRigidContentIsRefused) {
+  const fs::path dir = test_dir();
+  const std::vector<std::pair<std::string, std::function<void(Map&)>>> damages = {
+      {"pose is not a finite rigid transform",
+       [](Map& map) { map.keyframe(map.keyframes().rbegin()->first)->T_world_cam.translation().x() = std::nan(""); }},
+      {"pose is not a finite rigid transform",
+       [](Map& map) { map.keyframe(map.keyframes().rbegin()->first)->T_world_cam.linear() *= 1.01; }},
+      {"coordinates or depth are not finite",
+       [](Map& map) { map.keyframe(map.keyframes().begin()->first)->frame.depth_m[0] = std::nan(""); }},
+      {"position, viewing direction or distance range not finite",
+       [](Map& map) { map.point(map.point_ids().front())->position.y() = std::numeric_limits<double>::infinity(); }},
+  };
+  for (const auto& [why, damage] : damages) {
+    SCOPED_TRACE(why);
+    Map map = first_run().map;
+    damage(map);
+    const fs::path file = dir / "damaged.fsmap";
+    save_map(map, file, 0);
+    try {
+      load_map(file);
+      ADD_FAILURE() << "loaded";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
       EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
     }
   }
