@@ -38,7 +38,9 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
   std::string refused;
   for (const PlaceCandidate& candidate : inputs.database->query(bow.bow, query)) {
     const Keyframe* kf = map.keyframe(candidate.id);
-    if (kf == nullptr || kf->component != component_) continue;
+    // Lost in a map component, the camera is looked for in it; just loaded, in the whole map (the newest
+    // component may be a short one made after a loss, far from where the run starts).
+    if (kf == nullptr || (!in_loaded_map_ && kf->component != component_)) continue;
     if (++tried > c.max_candidates) break;
     w.clear_matches();
     const int inliers = relocalize_with(w, *kf, bow.features, map, result);
@@ -66,6 +68,7 @@ bool Tracker::relocalize(Working& w, Map& map, const TrackingInputs& inputs, Tra
     }
     if (inliers >= c.min_inliers) {
       reference_keyframe_ = kf->id;
+      component_ = kf->component;
       result.stage = "relocalization";
       result.relocalized = true;
       logger_->info("t={} relocalised against keyframe {} (BoW score {:.3f}, {} inliers)",

@@ -253,6 +253,36 @@ TEST(MapIo, LocalizationOnlyRunLocalisesEveryFrameInTheLoadedMap) {
   EXPECT_LT(second_world, 2.0 * first + 0.005);
 }
 
+// A saved map whose newest component is a short one (made after a loss, elsewhere): a localisation-only
+// run from the start of the route relocalises in the older component (it was looked for in the newest
+// one only, and stayed lost for the whole run).
+TEST(MapIo, ALoadedMapIsSearchedInAllItsComponents) {
+  const FirstRun& run = first_run();
+  Map map = run.map;
+  const Keyframe& first = map.keyframes().begin()->second;
+  Eigen::Isometry3d far_away = first.T_world_cam;
+  far_away.translation() += Eigen::Vector3d(30.0, 0.0, 0.0);
+  const int component = first.component + 1;
+  const KeyframeId newest = map.add_keyframe(first.frame, far_away, component);  // its features have no points
+  ASSERT_EQ(map.keyframes().rbegin()->first, newest);
+  const fs::path file = test_dir() / "two_components.fsmap";
+  save_map(map, file, 0);
+  AgentConfig config;
+  config.load_map = file.string();
+  config.localization_only = true;
+  Agent agent(config, test::synthetic_rgbd_rig(), core::null_logger());
+  int tracked = 0;
+  for (const core::SensorFrame& f : sequence()) {
+    const AgentUpdate u = agent.process(f);
+    if (f.sequence == 0) {
+      EXPECT_TRUE(u.relocalized) << u.reason;
+    }
+    tracked += u.status == FrameStatus::kTracked ? 1 : 0;
+  }
+  agent.finish();
+  EXPECT_EQ(tracked, kFrames);
+}
+
 // A map made with one vocabulary, loaded by an agent with another: the BoW vectors are recomputed with
 // the agent's, and relocalisation still finds the map.
 TEST(MapIo, LoadingWithAnotherVocabularyRecomputesBow) {

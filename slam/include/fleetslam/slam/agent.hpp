@@ -196,8 +196,9 @@ class Agent {
   // finish(). Throws InputError naming the file when it cannot be written.
   void save_map(const std::filesystem::path& file);
   // Starts from a saved map: before the first frame only (InvariantError otherwise). Keyframes' BoW vectors
-  // are recomputed when the file's vocabulary is not this agent's; the keyframe database indexes them; the
-  // tracker starts lost in the map component of the newest keyframe, so the first frame relocalises.
+  // are recomputed with this agent's vocabulary (and levels_up); the keyframe database indexes them; the
+  // tracker starts lost, so the first frame relocalises, in any of the map's components until it is placed
+  // (then in the component it was placed in; the newest keyframe's before that).
   // Throws InputError naming the file for a missing, truncated, corrupted, foreign or wrong-version file.
   void load_map(const std::filesystem::path& file);
 
