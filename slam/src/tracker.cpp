@@ -184,7 +184,7 @@ TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
   }
   // A new component starts where the camera was last believed to be, so the trajectory stays continuous
   // (the true link between components is unknown until relocalisation / map merging).
-  ++component_;
+  component_ = ++newest_component_;  // after every component a loaded map holds, whichever it tracked in
   lost_frames_ = 0;
   relocalization_failing_since_ns_.reset();
   frames_since_relocalization_ = -1;
@@ -226,6 +226,7 @@ void Tracker::keyframe_inserted(KeyframeId id, const Map& map) {
 void Tracker::start_in_map(int component) {
   state_ = TrackingState::kLost;
   component_ = component;
+  newest_component_ = std::max(newest_component_, component);
   lost_frames_ = config_.recovery_frames;  // the next frame counts one more: relocalisation at once
   lost_before_first_frame_ = true;
   in_loaded_map_ = true;

@@ -281,6 +281,24 @@ TEST(MapIo, ALoadedMapIsSearchedInAllItsComponents) {
   }
   agent.finish();
   EXPECT_EQ(tracked, kFrames);
+
+  // Mapping on from there, then lost among frames the map has never seen: the new component comes after
+  // both of the file's, not after the one the camera was placed in (it would have joined the far one).
+  config.localization_only = false;
+  config.tracking.relocalization.new_map_after_s = 0.1;
+  Agent mapping(config, test::synthetic_rgbd_rig(), core::null_logger());
+  ASSERT_TRUE(mapping.process(sequence()[0]).relocalized);
+  cv::RNG rng(7);
+  for (int i = 1; i < 12; ++i) {
+    core::SensorFrame unseen = sequence()[static_cast<std::size_t>(i)];
+    unseen.image = cv::Mat(unseen.image.size(), unseen.image.type());
+    rng.fill(unseen.image, cv::RNG::UNIFORM, 0, 256);
+    mapping.process(unseen);
+  }
+  mapping.finish();
+  const Map after = mapping.map_copy();
+  ASSERT_GT(after.keyframe_count(), map.keyframe_count()) << "a new map started";
+  EXPECT_EQ(after.keyframes().rbegin()->second.component, component + 1);
 }
 
 // A map made with one vocabulary, loaded by an agent with another: the BoW vectors are recomputed with

@@ -197,8 +197,9 @@ class Tracker {
   // The frame just tracked became keyframe `id` (with its points as local mapping created them): it is
   // the new reference, and the next frame matches against its points.
   void keyframe_inserted(KeyframeId id, const Map& map);
-  // Before the first frame, with a map loaded into the agent: the tracker starts lost in `component`,
-  // so that the first frame goes straight to relocalisation.
+  // Before the first frame, with a map loaded into the agent: the tracker starts lost in `component` (the
+  // map's newest), so that the first frame goes straight to relocalisation; a map started later comes
+  // after it.
   void start_in_map(int component);
 
   TrackingState state() const { return state_; }
@@ -238,6 +239,7 @@ class Tracker {
 
   TrackingState state_ = TrackingState::kNotInitialized;
   int component_ = -1;
+  int newest_component_ = -1;  // the highest component started or loaded: a new one comes after it
   int lost_frames_ = 0;  // consecutive frames lost (the current one included)
   bool lost_before_first_frame_ = false;  // start_in_map: lost_since_ns_ is the first frame's stamp
   bool in_loaded_map_ = false;            // start_in_map until the first frame is placed in the map
