@@ -237,6 +237,17 @@ TEST(RunCli, BadInputEndsWithOneClearLine) {
   r = run("run '" + (dir / "mission.yaml").string() + "' --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("mission.kind"), std::string::npos) << r.output;
+  // A robot without a camera has nothing for its agent to track: refused naming it (an internal error).
+  std::string blind = read_text(kOffice);
+  blind.replace(blind.find("scene: "), 7, "scene: " + kOffice.parent_path().string() + "/");  // written elsewhere
+  const std::size_t second_camera = blind.find("camera: {", blind.find("camera: {") + 1);
+  ASSERT_NE(second_camera, std::string::npos);
+  blind.insert(blind.find('\n', second_camera), "\n    imu: {enabled: false}");  // an IMU needs the camera too
+  blind.insert(second_camera + std::string("camera: {").size(), "enabled: false, ");
+  std::ofstream(dir / "blind.yaml") << blind;
+  r = run("run '" + (dir / "blind.yaml").string() + "' --out '" + (dir / "run").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("robots[1].camera.enabled: robot 'bravo' has no camera"), std::string::npos) << r.output;
   std::ofstream(dir / "criteria.yaml") << read_text(kOffice) << "criteria:\n  max_ate: 0.1\n";
   r = run("run '" + (dir / "criteria.yaml").string() + "' --out '" + (dir / "run").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;

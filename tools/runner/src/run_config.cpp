@@ -2,6 +2,8 @@
 
 #include "fleetslam/runner/run_config.hpp"
 
+#include <string>
+
 #include "fleetslam/core/error.hpp"
 
 namespace fleetslam::runner {
@@ -13,6 +15,13 @@ RunScenarioConfig load_run_scenario(const std::filesystem::path& file, std::opti
     config.world.seed = *seed;
   }
   sim::validate_scenario(config.world, file);
+  for (std::size_t i = 0; i < config.world.robots.size(); ++i) {
+    if (!config.world.robots[i].camera.enabled) {
+      throw InputError(file.string() + ":robots[" + std::to_string(i) + "].camera.enabled",
+                       "robot '" + config.world.robots[i].name +
+                           "' has no camera: every robot of a run carries a SLAM agent, which tracks with it");
+    }
+  }
   if (config.mission.kind != MissionKind::kScripted) {
     bool ground = false;
     for (const sim::RobotConfig& robot : config.world.robots) ground = ground || robot.type == sim::RobotType::kDiffDrive;
