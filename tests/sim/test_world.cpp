@@ -867,6 +867,17 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
   const ScenarioConfig rig_only = load_scenario(write("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, " + knots + "}\n"));
   EXPECT_EQ(rig_only.robots[0].initial_pose.yaw_deg, 30.0);
   EXPECT_EQ(rig_only.robots[0].initial_pose.z, 1.0);
+  // Knots may count turns: a first knot at 400 degrees starts the rig at 40, and the scenario written with
+  // that initial pose (generate's and run's effective scenario) loads again.
+  const std::string turned = "waypoints: [{t_s: 0, x: 1, y: 2, z: 1, yaw_deg: 400}, {t_s: 1, x: 2, yaw_deg: 760}]";
+  const ScenarioConfig spinning = load_scenario(write("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, " + turned + "}\n"));
+  EXPECT_NEAR(spinning.robots[0].initial_pose.yaw_deg, 40.0, 1e-12);
+  ScenarioConfig again = spinning;
+  again.scene = (spinning.base_dir / spinning.scene).string();
+  EXPECT_NO_THROW(load_scenario(write(core::config_to_yaml(again))));
+  EXPECT_EQ(error_with("{name: r, type: free_rig, initial_pose: {x: 1, y: 2, z: 1, yaw_deg: 40}, " + turned + "}"), "no error");
+  EXPECT_NE(error_with("{name: r, type: free_rig, waypoints: [{t_s: 0, x: 20000}, {t_s: 1}]}").find("waypoints[0].x"),
+            std::string::npos);
 }
 
 }  // namespace

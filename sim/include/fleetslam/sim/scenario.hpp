@@ -54,9 +54,10 @@ struct WaypointConfig {
   template <class V>
   void visit(V& v) {
     v("t_s", t_s, core::Limits<double>{0.0, 1e6});
-    v("x", x);
-    v("y", y);
-    v("z", z);
+    const core::Limits<double> position{-1e4, 1e4};  // as initial_pose's (a free rig's first knot becomes it)
+    v("x", x, position);
+    v("y", y, position);
+    v("z", z, position);
     v("roll_deg", roll_deg);
     v("pitch_deg", pitch_deg);
     v("yaw_deg", yaw_deg);
