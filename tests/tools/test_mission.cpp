@@ -155,19 +155,21 @@ TEST(MissionPlanner, AGoalMovedOffAnObstacleIsReachedAtTheSpotItWasMovedTo) {
   EXPECT_LT((c->path_world.back() - Eigen::Vector2d(4.0, 3.0)).norm(), 0.15) << "on to the next waypoint";
 }
 
-// Paths driven to their end with the estimate 0.5 m off (the controller steers on the true pose): each is a
-// failure, and the goal is given up after max_plan_failures instead of being driven to for ever.
-TEST(MissionPlanner, PathsThatEndShortOfTheGoalAreFailures) {
+// Paths driven to their end with the estimate 0.5 m off (the controller steers on the true pose): sent
+// again while the merge may still correct the estimate, and given up short_of_goal_patience_s after the
+// first such end instead of being driven to for ever.
+TEST(MissionPlanner, AGoalWhosePathsEndShortOfItIsGivenUpAfterThePatience) {
   const core::PointCloud map = room(6.0, 4.0);
   MissionConfig m = waypoints_mission();
-  m.max_plan_failures = 3;
+  m.short_of_goal_patience_s = 5.0;
   MissionPlanner mission(m, planning(), {MissionRobot{"a", true, {{4.0, 1.0}, {4.0, 3.0}}}});
   ASSERT_NE(command_for(mission.update(0.5, map, {at(1.0, 1.0)}), 0), nullptr);
-  for (int i = 0; i < m.max_plan_failures; ++i) {
-    const std::vector<PathCommand> commands = mission.update(1.5 + i, map, {at(4.0, 1.5, 0.0, true)});
-    EXPECT_EQ(mission.reports()[0].plan_failures, i + 1);
-    ASSERT_NE(command_for(commands, 0), nullptr) << "a new path each time";
+  for (double t = 1.5; t < 6.5; t += 1.0) {
+    const std::vector<PathCommand> commands = mission.update(t, map, {at(4.0, 1.5, 0.0, true)});
+    ASSERT_NE(command_for(commands, 0), nullptr) << "sent again at " << t << " s";
+    EXPECT_TRUE(mission.goal_of(0)->isApprox(Eigen::Vector2d(4.0, 1.0))) << "patience left at " << t << " s";
   }
+  mission.update(6.5, map, {at(4.0, 1.5, 0.0, true)});  // 5 s after the first short end
   EXPECT_EQ(mission.reports()[0].goals_reached, 0);
   EXPECT_EQ(mission.reports()[0].goals_given_up, 1);
   bool short_event = false;

@@ -165,6 +165,7 @@ void MissionPlanner::give_up_goal(double t_s, std::size_t robot, const std::stri
   if (mission_.kind == MissionKind::kWaypoints) ++s.next_waypoint;
   s.goal_world.reset();
   s.path_goal_world.reset();
+  s.short_since_s = -1.0;
   s.failures_for_goal = 0;
 }
 
@@ -213,21 +214,22 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
       }
       s.goal_world.reset();
       s.path_goal_world.reset();
+      s.short_since_s = -1.0;
       s.failures_for_goal = 0;
       s.has_path = false;
     }
     // A solved path driven to its end with the estimate not there (the controller follows the path on the
-    // robot's true pose; the estimate is off by more than goal_reached_m): a failure for the goal, or the
-    // robot would drive there again at every update.
+    // robot's true pose; the estimate is off by more than goal_reached_m): sent again, as the merge may
+    // correct the robot's placement, for short_of_goal_patience_s, or it would be sent for ever.
     if (s.goal_world && s.has_path && s.path_goal_world && seen.path_done) {
-      ++report.plan_failures;
+      if (s.short_since_s < 0.0) s.short_since_s = t_s;
       char what[128];
       std::snprintf(what, sizeof(what), "path done %.2f m short of its goal (%.2f, %.2f)",
                     (position - *s.path_goal_world).norm(), s.goal_world->x(), s.goal_world->y());
       event(r, t_s, what);
       s.has_path = false;
       s.path_goal_world.reset();
-      if (++s.failures_for_goal >= mission_.max_plan_failures) give_up_goal(t_s, r, "its paths end short of it");
+      if (t_s - s.short_since_s >= mission_.short_of_goal_patience_s) give_up_goal(t_s, r, "its paths end short of it");
     }
     if (s.goal_world && mission_.kind == MissionKind::kExplore) {
       // The frontier it was sent to has been seen (by it or another robot): a new one.
@@ -246,6 +248,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
         event(r, t_s, "its frontier has been explored");
         s.goal_world.reset();
         s.path_goal_world.reset();
+        s.short_since_s = -1.0;
         s.failures_for_goal = 0;
         s.has_path = false;
       }

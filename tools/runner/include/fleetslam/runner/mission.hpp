@@ -13,8 +13,8 @@
 // their paths do not conflict; the other robots (standing, or keeping a path that is still clear) are
 // obstacles where they are. A robot whose conflict deconfliction leaves unresolved is held where it is
 // (stopped; an obstacle the others are planned around, as is a boxed-in robot) and planned again at the
-// next update. A goal that fails to plan, or whose path ends with the robot's estimate short of it,
-// max_plan_failures times is given up and reported; a robot that lost tracking drives back along its
+// next update. A goal that fails to plan max_plan_failures times, or whose paths keep ending with the
+// robot's estimate short of it for MissionConfig::short_of_goal_patience_s, is given up and reported; a robot that lost tracking drives back along its
 // trail (lost_backtrack_m) and waits there until its agent relocalises. Nothing here throws for a bad map
 // or an unreachable goal: it is all in the reports (a map whose extent needs more than the grid's
 // max_cells keeps the last grid, with a warning).
@@ -106,6 +106,7 @@ class MissionPlanner {
     // Where its solved path ends: the goal, or the free spot the planner moved a goal in an obstacle's
     // margin to (PathPlannerConfig::goal_snap_radius_m); reaching either reaches the goal.
     std::optional<Eigen::Vector2d> path_goal_world;
+    double short_since_s = -1.0;  // when a path to this goal first ended short of it (-1: none did)
     // Explore: where the frontier of its goal is (the goal itself, or the centroid a viewpoint looks at).
     Eigen::Vector2d frontier_world = Eigen::Vector2d::Zero();
     Eigen::Vector2d frontier_centroid_world = Eigen::Vector2d::Zero();  // explore: its frontier's centroid

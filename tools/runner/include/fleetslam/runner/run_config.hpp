@@ -41,6 +41,10 @@ struct MissionConfig {
   double min_replan_interval_s = 0.5;  // a robot that finished its path triggers a plan no sooner than this
   double goal_reached_m = 0.25;     // the estimated position this close to a goal: reached
   int max_plan_failures = 3;        // failed plans for one goal before it is given up (reported)
+  // A robot whose solved paths keep ending with its estimate more than goal_reached_m from the goal (its
+  // estimate is off: the controller drives on the true pose) is sent again until this long after the
+  // first such end, as the merge may correct its placement meanwhile, then the goal is given up.
+  double short_of_goal_patience_s = 15.0;
   // Disks around the robots' past positions are free floor, even where the map has obstacles: a robot's
   // body was there (so it is no wall), and what stood there may have been a robot seen by another.
   // At most the robots' radius.
@@ -89,6 +93,7 @@ struct MissionConfig {
     v("min_replan_interval_s", min_replan_interval_s, core::Limits<double>{0.0, 1e6});
     v("goal_reached_m", goal_reached_m, core::Limits<double>{0.01, 100.0});
     v("max_plan_failures", max_plan_failures, core::Limits<int>{1, 1000});
+    v("short_of_goal_patience_s", short_of_goal_patience_s, core::Limits<double>{0.0, 1e6});
     v("footprint_free_radius_m", footprint_free_radius_m, core::Limits<double>{0.0, 10.0});
     v("blind_zone_free_radius_m", blind_zone_free_radius_m, core::Limits<double>{0.0, 10.0});
     v("start_snap_radius_m", start_snap_radius_m, core::Limits<double>{0.0, 10.0});
