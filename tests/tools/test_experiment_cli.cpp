@@ -147,6 +147,22 @@ TEST_F(ExperimentCli, KeyframesWritesTable2AndFig7) {
   expect_svg(out / "keyframes" / "cumulative_ate_std_tum_rgbd_dataset_freiburg1_rpy_200.svg", "polyline");
 }
 
+// Threaded, the frames come at their own rate (as on a robot): no run is shorter than its 12 frames' span
+// (TUM 0.368 s, the office rendering at 30 Hz 0.367 s), and the tables show how many frames each policy
+// tracked.
+TEST_F(ExperimentCli, ThreadedKeyframeRunsPlayTheFramesAtTheirRate) {
+  const fs::path out = dir_ / "run";
+  const test::CliResult r = test::run_cli("-q experiment keyframes --threaded --runs 1" + common(out) + " --euroc none");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<std::string> rows = lines_of(read_text(out / "keyframes" / "keyframes_runs.csv"));
+  ASSERT_EQ(rows.size(), 7u);  // header, 2 sequences x 3 policies
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_NE(rows[i].find(",1,12,"), std::string::npos) << "threaded, 12 frames: " << rows[i];
+    EXPECT_GE(std::stod(rows[i].substr(rows[i].rfind(',') + 1)), 0.36) << rows[i];
+  }
+  EXPECT_NE(read_text(out / "keyframes" / "keyframes.md").find(" / 12 |"), std::string::npos);
+}
+
 TEST_F(ExperimentCli, AllWritesTheResultsDocument) {
   const fs::path out = dir_ / "run";
   const fs::path doc = dir_ / "docs" / "RESULTS.md";

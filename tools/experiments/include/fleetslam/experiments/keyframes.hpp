@@ -30,7 +30,7 @@ struct KeyframesConfig {
                                                     slam::KeyframePolicyKind::kExponential,
                                                     slam::KeyframePolicyKind::kFixedInterval};
   int runs = 10;
-  bool threaded = false;
+  bool threaded = false;  // frames then come at their own rate (real-time playback)
   std::int64_t max_frames = -1;
 };
 
@@ -81,6 +81,9 @@ class KeyframesExperiment {
 
 Table keyframes_table(const KeyframesResult& result);       // one row per (sequence, policy)
 Table keyframes_runs_table(const KeyframesResult& result);  // one row per run (seconds: the timing column)
+
+// "tracked / frames": the frames tracked, averaged over the runs (the ATE covers those), of the sequence's.
+std::string tracked_share(const KeyframesRow& row);
 
 // keyframes.csv, keyframes_runs.csv, keyframes.md, cumulative_ate_rmse_<sequence>.svg and
 // cumulative_ate_std_<sequence>.svg (Fig. 7). Returns the files written.
