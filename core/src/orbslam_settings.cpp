@@ -358,6 +358,17 @@ void read_stereo(const SettingsFile& f, const Layout& layout, OrbSlamSettings& s
     baseline_m = rig.bf / rig.cam0.fx();
   } else if (layout.rectified) {
     baseline_m = required_positive(f, "Stereo.b", "baseline");
+    // ORB-SLAM3 takes a Rectified camera as an ideal pinhole and ignores distortion keys; read here, they
+    // would have the images rectified a second time (another focal length, another bf).
+    const Distortion& d = rig.cam0.distortion();
+    const std::pair<const char*, double> coefficients[] = {{"Camera1.k1", d.k1}, {"Camera1.k2", d.k2}, {"Camera1.p1", d.p1},
+                                                           {"Camera1.p2", d.p2}, {"Camera1.k3", d.k3}};
+    for (const auto& [key, value] : coefficients) {
+      if (value != 0.0) {
+        f.fail(key, "a \"Rectified\" camera is an ideal pinhole (ORB-SLAM3 ignores its distortion): remove the "
+                    "distortion keys, or give the raw cameras as PinHole with Camera2.* and Stereo.T_c1_c2");
+      }
+    }
     rig.bf = baseline_m * rig.cam0.fx();
   } else {
     rig.cam1 = read_camera(f, "Camera2.", rig.cam0.width(), rig.cam0.height(), layout.fisheye);
@@ -559,6 +570,15 @@ void write_stereo(SettingsText& out, const SensorRig& rig) {
   }
   write_camera(out, "Camera2.", *rig.cam1);
   out.matrix("Stereo.T_c1_c2", rig.T_cam0_cam1);
+  // ORB-SLAM3 requires, for a fisheye pair, the columns where the two images overlap (it exits without
+  // them); the whole width, as its TUM-VI example, lets its stereo search look everywhere. (It builds
+  // camera 2's model from Camera1.k1..k4, whatever Camera2.k* says; this project reads both.)
+  if (rig.cam0.distortion().is_equidistant()) {
+    out.integer("Camera1.overlappingBegin", 0);
+    out.integer("Camera1.overlappingEnd", rig.cam0.width() - 1);
+    out.integer("Camera2.overlappingBegin", 0);
+    out.integer("Camera2.overlappingEnd", rig.cam1->width() - 1);
+  }
 }
 
 void write_imu(SettingsText& out, const SensorRig& rig) {

@@ -351,7 +351,11 @@ TEST_F(OrbSlamSettingsTest, V1MonoInertialWithResize) {
 }
 
 TEST_F(OrbSlamSettingsTest, V1Rectified) {
-  const std::string text = with(kV1Camera1, "Camera.type", "\"Rectified\"") + "Stereo.b: 0.0745\nStereo.ThDepth: 40.0\n";
+  std::string camera = with(kV1Camera1, "Camera.type", "\"Rectified\"");
+  // ORB-SLAM3 ignores a Rectified camera's distortion: such keys are a contradiction, named.
+  expect_error(camera + "Stereo.b: 0.0745\nStereo.ThDepth: 40.0\n", "Camera1.k1", "ideal pinhole");
+  for (const char* key : {"Camera1.k1", "Camera1.k2", "Camera1.p1", "Camera1.p2"}) camera = without(camera, key);
+  const std::string text = camera + "Stereo.b: 0.0745\nStereo.ThDepth: 40.0\n";
   const OrbSlamSettings s = read(text);
   EXPECT_EQ(s.rig.mode, SensorMode::kStereo);
   ASSERT_TRUE(s.rig.cam1.has_value());
@@ -712,6 +716,13 @@ TEST_F(OrbSlamSettingsTest, WrittenFileHasTheKeysAndTypesOrbSlam3Reads) {
     if (fisheye) {
       for (const char* key : {"Camera1.k1", "Camera1.k2", "Camera1.k3", "Camera1.k4"}) expect_real(key);
       EXPECT_TRUE(file["Camera1.p1"].empty());
+    }
+    if (fisheye && stereo) {  // required by ORB-SLAM3 for a fisheye pair (it exits without them)
+      for (const char* key : {"Camera1.overlappingBegin", "Camera1.overlappingEnd", "Camera2.overlappingBegin",
+                              "Camera2.overlappingEnd"}) {
+        expect_int(key);
+      }
+      EXPECT_EQ(static_cast<int>(file["Camera1.overlappingEnd"]), written.rig.cam0.width() - 1);
     }
     if (stereo || mode == SensorMode::kRgbd) expect_real("Stereo.ThDepth");
     if (mode == SensorMode::kRgbd) {

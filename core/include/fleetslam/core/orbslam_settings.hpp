@@ -42,7 +42,9 @@ struct OrbExtractorSettings {
 struct OrbSlamSettings {
   // Mode, cameras as recorded, extrinsics, IMU noise, depth scale, bf, fps, colour order.
   // Stereo from two cameras: cam1 and T_cam0_cam1 from Camera2.* and Stereo.T_c1_c2, bf = |t| * cam0.fx
-  // (as ORB-SLAM3 computes it; a rectified rig from stereo_rectify.hpp gives the exact one).
+  // (ORB-SLAM3 uses |t| times the rectified focal length once it rectifies the pair: so does this
+  // project's front end, from the rectified rig of stereo_rectify.hpp; this bf serves close_depth_m, in
+  // raw fx units).
   // Rectified stereo (old Camera.bf, or v1.0 Camera.type "Rectified" with Stereo.b): cam1 = cam0 and
   // T_cam0_cam1 = translation (baseline, 0, 0). RGB-D: bf is the virtual baseline times fx.
   SensorRig rig;
