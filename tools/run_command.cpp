@@ -3,6 +3,7 @@
 // judged against ground truth and the scenario's pass criteria. Exit 0 when every criterion holds, 1
 // when one fails, 2 for bad input.
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -53,7 +54,12 @@ void print_summary(const nlohmann::json& metrics, const fs::path& out) {
   for (const nlohmann::json& r : metrics["robots"]) {
     std::printf("%-10s %s frames, tracked %s, collisions %d", r["name"].get<std::string>().c_str(),
                 r["frames"].dump().c_str(), r["tracked"].dump().c_str(), r["collisions"].get<int>());
-    if (r["planned"].get<bool>()) std::printf(", goals %d/%d", r["goals_reached"].get<int>(), r["goals_total"].get<int>());
+    if (r["planned"].get<bool>()) {
+      std::printf(", goals %d/%d", r["goals_reached"].get<int>(), r["goals_total"].get<int>());
+      double farthest = -1.0;  // of the true body from a goal counted reached
+      for (const nlohmann::json& d : r["goals_reached_true_distance_m"]) farthest = std::max(farthest, d.get<double>());
+      if (farthest >= 0.0) std::printf(" (truly within %.2f m)", farthest);
+    }
     if (r.contains("ate_world_m")) std::printf(", ATE world %s m", number(r["ate_world_m"]["rmse"], 4).c_str());
     if (r.contains("refined_error")) {
       std::printf(", placed to %s m / %s deg (prior %s m / %s deg)", number(r["refined_error"]["translation_m"], 4).c_str(),

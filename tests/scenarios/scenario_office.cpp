@@ -35,6 +35,10 @@ TEST(ScenarioOffice, TwoPlannedRobotsPassTheirCriteria) {
     EXPECT_TRUE(robot["planned"].get<bool>());
     EXPECT_EQ(robot["goals_reached"], 5) << robot["mission_events"].dump(1);
     EXPECT_GT(robot["plans"].get<int>(), 4);
+    // Judged from estimates; the true body was near each goal counted reached (within goal_reached_m, and
+    // the estimate's error).
+    ASSERT_EQ(robot["goals_reached_true_distance_m"].size(), 5u);
+    for (const nlohmann::json& d : robot["goals_reached_true_distance_m"]) EXPECT_LT(d.get<double>(), 0.25 + 0.15);
   }
   const std::string report = read_text(out / "report.html");
   EXPECT_NE(report.find("PASS"), std::string::npos);

@@ -189,6 +189,8 @@ struct RobotRun {
   double contact_s = 0.0;    // simulated time spent in contact (resolution: the world's steps, the sensor ticks)
   bool in_contact = false;
   nlohmann::json collision_events = nlohmann::json::array();
+  // The mission judges goals from estimates: how far the true body was from each goal it counted reached.
+  std::vector<double> reached_true_distance_m;
 };
 
 // Each frame through its robot's agent, in order: the updates, one per frame. With threads > 1 and
@@ -382,7 +384,18 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         views.push_back({T_world_cam.translation().cast<float>(), core::transformed_points(kf->dense_cam.points, T_world_cam)});
       }
     }
+    std::vector<std::optional<Eigen::Vector2d>> goal_before(robots.size());
+    std::vector<int> reached_before(robots.size());
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      goal_before[r] = mission.goal_of(r);
+      reached_before[r] = mission.reports()[r].goals_reached;
+    }
     for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen, views)) world.set_path(c.robot, c.path_world);
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      if (!goal_before[r] || mission.reports()[r].goals_reached <= reached_before[r]) continue;
+      const Eigen::Vector2d true_xy = world.truth(r).T_world_body.translation().head<2>();
+      robots[r].reached_true_distance_m.push_back((true_xy - *goal_before[r]).norm());
+    }
     coverage_series.push_back({t_s, coverage(truth_space, mission.grid())});
     mission_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     ++mission_updates;
@@ -510,6 +523,7 @@ RunOutcome Runner::run(const ProgressSink& progress) {
                             {"contact_s", robot.contact_s}, {"collision_events", robot.collision_events},
                             {"planned", mission.planned() && robot.ground}, {"goals_total", m.goals_total},
                             {"goals_reached", m.goals_reached}, {"goals_given_up", m.goals_given_up},
+                            {"goals_reached_true_distance_m", robot.reached_true_distance_m},
                             {"plans", m.plans}, {"plan_failures", m.plan_failures}, {"mission_events", m.events},
                             {"timings_ms", {{"tracking", timing_stats_json(robot.tracking_ms)}, {"mapping", timing_stats_json(robot.mapping_ms)},
                                             {"dense", timing_stats_json(robot.dense_ms)}, {"loop", timing_stats_json(robot.loop_ms)},
