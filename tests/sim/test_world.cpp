@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -62,6 +63,22 @@ RobotConfig still_rig(const std::string& name, const PoseConfig& pose) {
     robot.waypoints.push_back(w);
   }
   return robot;
+}
+
+// A diff-drive robot named "rover" with a small camera, driving through `waypoints` (x, y).
+RobotConfig small_rover(std::int64_t seed, const std::vector<std::pair<double, double>>& waypoints) {
+  RobotConfig rover;
+  rover.name = "rover";
+  rover.seed = seed;
+  rover.camera.width = 32;
+  rover.camera.height = 24;
+  for (const auto& [x, y] : waypoints) {
+    WaypointConfig w;
+    w.x = x;
+    w.y = y;
+    rover.waypoints.push_back(w);
+  }
+  return rover;
 }
 
 ScenarioConfig scenario_in(const fs::path& dir, std::vector<RobotConfig> robots, double duration_s = 1.0) {
@@ -334,18 +351,7 @@ TEST(World, FramesCarryTheImuStateAtTheirInstant) {
   RobotConfig rig = moving_rig();
   rig.imu.noise_enabled = true;
   rig.imu.initial_gyro_bias_radps = {0.01, -0.02, 0.005};
-  RobotConfig rover;
-  rover.name = "rover";
-  rover.seed = 2;
-  rover.camera.width = 32;
-  rover.camera.height = 24;
-  WaypointConfig a;
-  a.x = 0.5;
-  a.y = 0.5;
-  WaypointConfig b;
-  b.x = 0.5;
-  b.y = -0.5;
-  rover.waypoints = {a, b};
+  const RobotConfig rover = small_rover(2, {{0.5, 0.5}, {0.5, -0.5}});
   RobotConfig blind = still_rig("blind", PoseConfig{0, 1, 1, 0, 0, 0});
   blind.camera.width = 32;
   blind.camera.height = 24;
@@ -503,18 +509,7 @@ TEST(World, TwoWorldsStepInTurnsAsEachAlone) {
 
 TEST(World, DiffDriveRobotFollowsItsPathAndStopsAtWalls) {
   const fs::path dir = write_scene("drive", kWallScene);
-  RobotConfig rover;
-  rover.name = "rover";
-  rover.seed = 1;
-  rover.camera.width = 32;
-  rover.camera.height = 24;
-  WaypointConfig a;
-  a.x = 1.0;
-  a.y = 0.0;
-  WaypointConfig b;
-  b.x = 4.0;  // behind the wall (face at x = 2.15): the robot must stop at it
-  b.y = 0.0;
-  rover.waypoints = {a, b};
+  const RobotConfig rover = small_rover(1, {{1.0, 0.0}, {4.0, 0.0}});  // 4 m: behind the wall (face at x = 2.15), where it must stop
   World world(scenario_in(dir, {rover}, 12.0), nullptr);
   int contacts = 0;
   for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
