@@ -187,6 +187,37 @@ TEST(ExperimentCliErrors, MissingDatasetFolderExitsTwoNamingIt) {
   EXPECT_NE(r.output.find("no such folder"), std::string::npos) << r.output;
 }
 
+// A sequence whose ground truth has a drop-out at a pair's frames: the pair moves on to the next frames
+// with poses (the experiment used to stop); with no three consecutive posed frames at all it is an error
+// naming the folder. Runs on a short rendered office sequence (no real data needed).
+TEST(ExperimentCliMatching, AGroundTruthDropOutMovesThePair) {
+  const fs::path dir = test::fresh_test_dir("fleetslam_test_experiment_cli_dropout");
+  const test::CliResult generated = test::run_cli("-q generate " + quoted(kOffice) + " --format tum --duration 0.5 --robots alpha --out " +
+                                                  quoted(dir / "seq"));
+  ASSERT_EQ(generated.exit_code, 0) << generated.output;
+  const fs::path sequence = dir / "seq" / "alpha";
+  const fs::path gt = sequence / "groundtruth.txt";
+  const std::vector<std::string> lines = lines_of(read_text(gt));
+  // One pair over 15 frames starts at frame 7: drop the poses of frames 6 and 7 (lines 7 and 8, after the header).
+  ASSERT_GT(lines.size(), 10u);
+  std::string text;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (i != 7 && i != 8) text += lines[i] + "\n";
+  }
+  std::ofstream(gt) << text;
+  const std::string args = "experiment matching --tum " + quoted(sequence) + " --tum-calibration " +
+                           quoted(sequence / "orbslam_settings.yaml") + " --euroc none --scenario none --frames 15 --pairs 1 " +
+                           "--repetitions 1 --features 250 --out " + quoted(dir / "out");
+  test::CliResult r = test::run_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("the pair starts at frame 9 instead"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "out" / "matching" / "matching.csv"));
+  std::ofstream(gt) << lines[0] << "\n" << lines[3] << "\n" << lines[6] << "\n";  // no three in a row
+  r = test::run_cli(args);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no three consecutive frames with a ground-truth pose"), std::string::npos) << r.output;
+}
+
 TEST(ExperimentCliErrors, BadSettingsExitTwo) {
   // `arguments` with every source none: exit 2 and a message holding `why`.
   const auto expect_exit_two = [](const std::string& arguments, const std::string& why) {

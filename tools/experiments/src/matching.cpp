@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <optional>
 
 #include <opencv2/core/utility.hpp>
 
@@ -45,21 +46,46 @@ struct Triple {
   core::SensorFrame previous, a, b;
 };
 
-// Frames k-1, k, k+1, each with a ground-truth pose.
-Triple read_triple(const SequenceSpec& spec, std::int64_t k, const core::Logger& logger) {
+// Frames k-1, k, k+1, each with a ground-truth pose; none when one of them has no pose.
+std::optional<Triple> read_triple(const SequenceSpec& spec, std::int64_t k, const core::Logger& logger) {
   const auto source = open_sequence(spec, k - 1, k + 2, logger);
   Triple t;
   core::SensorFrame* slots[] = {&t.previous, &t.a, &t.b};
   for (core::SensorFrame* slot : slots) {
     std::optional<core::SensorFrame> frame = source->next();
     if (!frame) throw InputError(spec.folder.string(), "frame " + std::to_string(k) + " and its neighbours cannot be read");
-    if (!frame->T_world_cam_gt) {
-      throw InputError(spec.folder.string(), "frame " + std::to_string(frame->sequence) +
-                                                 " has no ground-truth pose (matching needs one at every frame of a pair)");
-    }
+    if (!frame->T_world_cam_gt) return std::nullopt;
     *slot = std::move(*frame);
   }
   return t;
+}
+
+// The pairs at `starts`; a start whose frames lack a ground-truth pose (a motion-capture drop-out) moves
+// on to the next frames that have one, up to the next start.
+std::vector<Triple> read_triples(const SequenceSpec& spec, const std::vector<std::int64_t>& starts, std::int64_t frames,
+                                 const core::Logger& logger) {
+  std::vector<Triple> triples;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    const std::int64_t last = i + 1 < starts.size() ? starts[i + 1] - 1 : frames - 2;
+    std::int64_t k = starts[i];
+    std::optional<Triple> triple;
+    for (; k <= last && !(triple = read_triple(spec, k, logger)); ++k) {
+    }
+    if (!triple) {
+      logger->warn("{}: no three consecutive frames with ground truth from frame {} to {}: pair left out",
+                   spec.folder.string(), starts[i] - 1, last + 1);
+      continue;
+    }
+    if (k != starts[i]) {
+      logger->warn("{}: frames {} .. {} lack a ground-truth pose: the pair starts at frame {} instead", spec.folder.string(),
+                   starts[i] - 1, starts[i] + 1, k);
+    }
+    triples.push_back(std::move(*triple));
+  }
+  if (triples.empty()) {
+    throw InputError(spec.folder.string(), "no three consecutive frames with a ground-truth pose: matching needs them");
+  }
+  return triples;
 }
 
 MatchPair make_pair(const slam::FrameBuilder& builder, const Triple& t) {
@@ -127,8 +153,7 @@ MatchingResult MatchingExperiment::run(const std::vector<SequenceSpec>& sequence
     const auto probe = open_sequence(spec, 0, config_.max_frames, logger_);
     const std::vector<std::int64_t> starts = pair_starts(static_cast<std::int64_t>(probe->size()), config_.pairs);
     if (starts.empty()) throw InputError(spec.folder.string(), "matching needs at least 3 frames");
-    std::vector<Triple> triples;
-    for (const std::int64_t k : starts) triples.push_back(read_triple(spec, k, logger_));
+    const std::vector<Triple> triples = read_triples(spec, starts, static_cast<std::int64_t>(probe->size()), logger_);
     for (const int features : config_.features) {
       const slam::FrameBuilder builder(builder_config(spec, features), probe->rig());
       std::vector<MatchPair> pairs;
