@@ -40,6 +40,7 @@ struct ExperimentOptions {
   std::string euroc = "../shared/data/euroc/V1_01_easy_micro";
   std::vector<std::string> scenarios = {"scenes/office/office_2robots.yaml"};
   double synthetic_duration_s = 10.0;
+  bool rerender = false;
   std::int64_t frames = -1;
   int repetitions = 100;
   int pairs = 4;
@@ -62,6 +63,7 @@ ex::DataSourcesConfig data_sources(const ExperimentOptions& o) {
   }
   config.synthetic_duration_s = o.synthetic_duration_s;
   config.synthetic_dir = fs::path(o.out) / "synthetic";
+  config.rerender = o.rerender;
   return config;
 }
 
@@ -171,6 +173,9 @@ void add_experiment_command(CLI::App& app, const GlobalOptions& global) {
       ->delimiter(',')
       ->capture_default_str();
   cmd->add_option("--synthetic-duration", o->synthetic_duration_s, "Simulated seconds per scenario")->capture_default_str();
+  cmd->add_flag("--rerender", o->rerender,
+                "Render the scenarios again even when OUT/synthetic has them (the reuse check sees the scenario and "
+                "scene files only, not textures or the simulator's code)");
   cmd->add_option("--frames", o->frames, "Use at most this many frames of each sequence (-1: all)")->capture_default_str();
   cmd->add_option("--repetitions", o->repetitions, "matching: timed repetitions per pair and matcher")
       ->capture_default_str()

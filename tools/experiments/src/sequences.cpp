@@ -150,7 +150,7 @@ std::vector<SequenceSpec> render_synthetic(const DataSourcesConfig& config, cons
     const fs::path dir = config.synthetic_dir / (stem + "_" + fixed(config.synthetic_duration_s, 1) + "s");
     const std::string key = rendering_key(scenario_file, world, config.synthetic_duration_s);
     std::error_code ec;
-    if (!(fs::exists(dir / kRenderedFile, ec) && read_whole(dir / kRenderedFile) == key)) {
+    if (config.rerender || !(fs::exists(dir / kRenderedFile, ec) && read_whole(dir / kRenderedFile) == key)) {
       logger->info("rendering {} ({} s) into {}", scenario_file.string(), config.synthetic_duration_s, dir.string());
       fs::remove_all(dir, ec);
       fs::create_directories(dir, ec);

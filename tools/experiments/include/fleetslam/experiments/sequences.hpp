@@ -38,6 +38,9 @@ struct DataSourcesConfig {
   std::vector<std::filesystem::path> scenarios;  // run scenarios to render
   double synthetic_duration_s = 10.0;     // simulated seconds per scenario
   std::filesystem::path synthetic_dir;    // where rendered sequences go (reused when already rendered the same way)
+  // Render even when a rendering of the same scenario, scene file and duration is there: the reuse check
+  // does not see textures, MJCF includes or the simulator's code.
+  bool rerender = false;
 };
 
 // Checks that every given folder and file exists before anything runs: InputError "path: why".
