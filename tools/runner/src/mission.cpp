@@ -255,6 +255,8 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
     }
     if (!s.goal_world && mission_.kind == MissionKind::kWaypoints && s.next_waypoint < robots_[r].waypoints_world.size()) {
       s.goal_world = robots_[r].waypoints_world[s.next_waypoint];
+      s.path_goal_world.reset();
+      s.short_since_s = -1.0;
       s.has_path = false;
     }
     if (s.goal_world && (!s.has_path || seen.path_done || path_blocked(r, seen))) needs_plan[r] = true;
@@ -390,6 +392,8 @@ void MissionPlanner::assign_frontiers(double t_s, const std::vector<RobotObserva
     s.exhausted = false;
     s.look_arounds = 0;
     s.goal_world = goals[static_cast<std::size_t>(g)];
+    s.path_goal_world.reset();
+    s.short_since_s = -1.0;
     s.frontier_world = goal_frontiers[static_cast<std::size_t>(g)];
     s.frontier_centroid_world = goal_centroids[static_cast<std::size_t>(g)];
     s.failures_for_goal = 0;
