@@ -64,8 +64,10 @@ void write_imu_yaml(const std::filesystem::path& file, const ImuNoise& noise) {
 // EuRoC's state ground truth: each body pose with the body's velocity in the world and the IMU biases.
 void write_states(const std::filesystem::path& file, const Trajectory& body_poses, const std::vector<ImuStateGt>& states) {
   std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [],"
-         "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
+  std::string header = trajectory_file_header(TrajectoryFormat::kEuroc);
+  header.pop_back();  // its newline: the state's columns follow
+  out << header
+      << ",v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
          "b_w_RS_S_z [rad s^-1],b_a_RS_S_x [m s^-2],b_a_RS_S_y [m s^-2],b_a_RS_S_z [m s^-2]\n";
   for (std::size_t i = 0; i < body_poses.size(); ++i) {
     std::string line = format_trajectory_line(body_poses[i], TrajectoryFormat::kEuroc);

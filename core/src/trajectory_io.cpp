@@ -422,6 +422,16 @@ void put_number(std::string& out, double value) {
 
 }  // namespace
 
+std::string trajectory_file_header(TrajectoryFormat format) {
+  switch (format) {
+    case TrajectoryFormat::kTum: return "# timestamp tx ty tz qx qy qz qw\n";
+    case TrajectoryFormat::kEuroc:
+      return "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+    case TrajectoryFormat::kKitti: break;
+  }
+  return "";
+}
+
 std::string format_trajectory_line(const StampedPose& pose, TrajectoryFormat format) {
   const Eigen::Vector3d t = pose.T_world_body.translation();
   const Eigen::Matrix3d R = pose.T_world_body.linear();
@@ -458,10 +468,7 @@ void write_trajectory(const fs::path& path, const Trajectory& trajectory, Trajec
   if (ec) throw InputError(file, "cannot create the folder: " + ec.message());
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw InputError(file, "cannot open the file for writing");
-  if (format == TrajectoryFormat::kTum) out << "# timestamp tx ty tz qx qy qz qw\n";
-  if (format == TrajectoryFormat::kEuroc) {
-    out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
-  }
+  out << trajectory_file_header(format);
   for (const StampedPose& pose : trajectory) out << format_trajectory_line(pose, format);
   out.flush();
   if (!out) throw InputError(file, "write failed");

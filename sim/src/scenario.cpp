@@ -94,19 +94,18 @@ void check_unused_settings(const std::filesystem::path& file, std::size_t index,
   if (robot.waypoints.empty()) return;  // check_waypoints refuses it
   // Angles as initial_pose holds them, in [-180, 180): knots may count turns beyond +-360 degrees, and the
   // effective scenario written with this initial_pose must load again.
-  const auto wrapped = [](double deg) {
-    const double w = std::fmod(deg + 180.0, 360.0);
-    return (w < 0.0 ? w + 360.0 : w) - 180.0;
+  const auto with_wrapped_angles = [](PoseConfig pose) {
+    for (double* deg : {&pose.roll_deg, &pose.pitch_deg, &pose.yaw_deg}) {
+      const double w = std::fmod(*deg + 180.0, 360.0);
+      *deg = (w < 0.0 ? w + 360.0 : w) - 180.0;
+    }
+    return pose;
   };
   const WaypointConfig& w = robot.waypoints.front();
-  const PoseConfig first{w.x, w.y, w.z, wrapped(w.roll_deg), wrapped(w.pitch_deg), wrapped(w.yaw_deg)};
-  PoseConfig given = robot.initial_pose;
-  given.roll_deg = wrapped(given.roll_deg);
-  given.pitch_deg = wrapped(given.pitch_deg);
-  given.yaw_deg = wrapped(given.yaw_deg);
+  const PoseConfig first = with_wrapped_angles({w.x, w.y, w.z, w.roll_deg, w.pitch_deg, w.yaw_deg});
   if (first_difference(robot.initial_pose, PoseConfig{}).empty()) {
     robot.initial_pose = first;  // not given: where the rig starts
-  } else if (const std::string key = first_difference(given, first); !key.empty()) {
+  } else if (const std::string key = first_difference(with_wrapped_angles(robot.initial_pose), first); !key.empty()) {
     throw InputError(robot_key(file, index, "initial_pose." + key),
                      "a free_rig starts at its first waypoint: give initial_pose as that pose, or leave it out");
   }

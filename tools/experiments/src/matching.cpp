@@ -68,9 +68,8 @@ std::vector<Triple> read_triples(const SequenceSpec& spec, const std::vector<std
   for (std::size_t i = 0; i < starts.size(); ++i) {
     const std::int64_t last = i + 1 < starts.size() ? starts[i + 1] - 1 : frames - 2;
     std::int64_t k = starts[i];
-    std::optional<Triple> triple;
-    for (; k <= last && !(triple = read_triple(spec, k, logger)); ++k) {
-    }
+    std::optional<Triple> triple = read_triple(spec, k, logger);
+    while (!triple && k < last) triple = read_triple(spec, ++k, logger);
     if (!triple) {
       logger->warn("{}: no three consecutive frames with ground truth from frame {} to {}: pair left out",
                    spec.folder.string(), starts[i] - 1, last + 1);

@@ -86,7 +86,8 @@ Trajectory read_trajectory(const std::filesystem::path& path,
 // when the file cannot be written.
 void write_trajectory(const std::filesystem::path& path, const Trajectory& trajectory,
                       TrajectoryFormat format);
-// One line of write_trajectory's file for pose, newline included.
+// write_trajectory's header line (newline included; empty for KITTI) and one line for a pose.
+std::string trajectory_file_header(TrajectoryFormat format);
 std::string format_trajectory_line(const StampedPose& pose, TrajectoryFormat format);
 
 }  // namespace fleetslam::core
