@@ -75,13 +75,14 @@ ImageBounds undistorted_image_bounds(const core::PinholeCamera& raw) {
   return box.empty() ? image : box;
 }
 
-FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, double max_u, double min_v,
-                         double max_v, int cols, int rows) {
+FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double min_u,
+                         double max_u, double min_v, double max_v, int cols, int rows) {
   FLEETSLAM_CHECK(cols > 0 && rows > 0, "FeatureGrid needs at least one cell");
   FLEETSLAM_CHECK(std::isfinite(min_u) && std::isfinite(max_u) && std::isfinite(min_v) && std::isfinite(max_v),
                   "FeatureGrid bounds must be finite");
-  FLEETSLAM_CHECK(uv.size() <= static_cast<std::size_t>(std::numeric_limits<int>::max()),
+  FLEETSLAM_CHECK(uv.size() <= static_cast<std::size_t>(std::numeric_limits<int>::max() - kGatherSlice),
                   "FeatureGrid: too many features for int indices");
+  FLEETSLAM_CHECK(level.empty() || level.size() == uv.size(), "FeatureGrid: one level per feature, or none");
   cols_ = cols;
   rows_ = rows;
   min_u_ = min_u;
@@ -90,11 +91,13 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
   cell_h_ = (max_v > min_v ? max_v - min_v : 1.0) / rows;
   inv_cell_w_ = 1.0 / cell_w_;
   inv_cell_h_ = 1.0 / cell_h_;
+  has_levels_ = level.size() == uv.size();  // with no features, vacuously
+  built_from_ = uv.size();
   const double end_u = min_u_ + cell_w_ * cols;
   const double end_v = min_v_ + cell_h_ * rows;
   const std::size_t cells = static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows);
   // Counting sort by cell: count per cell (shifted by one), prefix sums give each cell's start, then
-  // the indices in ascending order, so that each cell's slice is ascending.
+  // the entries in ascending feature order, so that each cell's slice is ascending.
   std::vector<int> cell_of(uv.size(), -1);
   cell_start_.assign(cells + 1, 0);
   for (std::size_t i = 0; i < uv.size(); ++i) {
@@ -109,51 +112,35 @@ FeatureGrid::FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, d
     ++cell_start_[static_cast<std::size_t>(cell_of[i]) + 1];
   }
   for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
-  indices_.assign(static_cast<std::size_t>(cell_start_[cells]) + kGatherSlice, 0);
+  const std::size_t entries = static_cast<std::size_t>(cell_start_[cells]) + kGatherSlice;
+  index_.assign(entries, 0);
+  u_.assign(entries, 0.0);
+  v_.assign(entries, 0.0);
+  level_.assign(entries, 0);
   std::vector<int> next(cell_start_.begin(), cell_start_.end() - 1);
   for (std::size_t i = 0; i < uv.size(); ++i) {
     if (cell_of[i] < 0) continue;
-    indices_[static_cast<std::size_t>(next[static_cast<std::size_t>(cell_of[i])]++)] = static_cast<int>(i);
+    const auto e = static_cast<std::size_t>(next[static_cast<std::size_t>(cell_of[i])]++);
+    index_[e] = static_cast<int>(i);
+    u_[e] = uv[i].x();
+    v_[e] = uv[i].y();
+    level_[e] = has_levels_ ? level[i] : 0;
   }
 }
 
-std::vector<int> FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
-                                               double u, double v, double radius_px, int min_level,
+std::vector<int> FeatureGrid::features_in_area(double u, double v, double radius_px, int min_level,
                                                int max_level) const {
   std::vector<int> found;
-  features_in_area(uv, level, u, v, radius_px, min_level, max_level, found);
+  features_in_area(u, v, radius_px, min_level, max_level, found);
   std::sort(found.begin(), found.end());
   return found;
 }
 
-std::size_t FeatureGrid::features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
-                                          double u, double v, double radius_px, int min_level, int max_level,
+std::size_t FeatureGrid::features_in_area(double u, double v, double radius_px, int min_level, int max_level,
                                           std::vector<int>& found) const {
-  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-  if (!query_cells(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1)) return 0;
-  // Room for every scanned feature (cells x0 .. x1 of a row are one slice of indices_), then each one
-  // written and kept when it passes, without branching on it.
-  std::size_t scanned = 0;
-  for (int y = y0; y <= y1; ++y) {
-    const int* const row = cell_start_.data() + static_cast<std::ptrdiff_t>(y) * cols_;
-    scanned += static_cast<std::size_t>(row[x1 + 1] - row[x0]);
-  }
-  if (scanned == 0) return 0;
   const std::size_t before = found.size();
-  found.resize(before + scanned);
-  int* const out = found.data() + before;
-  std::size_t kept = 0;
-  const auto keep = [&](int i, bool in_area) {
-    out[kept] = i;
-    kept += static_cast<std::size_t>(in_area);
-  };
-  if (min_level >= 0 || max_level >= 0) {
-    scan_cells<true>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, keep);
-  } else {
-    scan_cells<false>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, keep);
-  }
-  found.resize(before + kept);
-  return kept;
+  visit_area(u, v, radius_px, min_level, max_level, [&found](int i) { found.push_back(i); });
+  return found.size() - before;
 }
 
 std::optional<Eigen::Vector3d> Frame::unproject(std::size_t i) const {
@@ -182,7 +169,7 @@ void Frame::finalize() {
   ImageBounds area = bounds;
   if (area.empty() && camera.width() > 0) area = ImageBounds::of_image(camera.width(), camera.height());
   if (area.empty()) area = bounding_box(uv);
-  grid = FeatureGrid(uv, area);
+  grid = FeatureGrid(uv, level, area);
 }
 
 }  // namespace fleetslam::slam

@@ -22,7 +22,7 @@ int best_feature(const Keyframe& kf, const MapPoint& p, const ProjectedPoint& pr
   const Frame& f = kf.frame;
   const double radius = config.fuse_radius_factor * f.pyramid.scale[static_cast<std::size_t>(proj.level)];
   int best = -1, best_distance = std::numeric_limits<int>::max();
-  for (int i : f.grid.features_in_area(f.uv, f.level, proj.uv.x(), proj.uv.y(), radius, proj.level - 1, proj.level)) {
+  for (int i : f.grid.features_in_area(proj.uv.x(), proj.uv.y(), radius, proj.level - 1, proj.level)) {
     const auto k = static_cast<std::size_t>(i);
     double e2 = (proj.uv - f.uv[k]).squaredNorm();
     double chi2 = kChi2Mono;

@@ -56,7 +56,7 @@ int fuse_loop_points(KeyframeId kf_id, const std::vector<MapPointId>& loop_point
     if (!proj) continue;
     const Frame& f = kf.frame;
     const double radius = search.radius_factor * f.pyramid.scale[static_cast<std::size_t>(proj->level)];
-    const std::vector<int> near = f.grid.features_in_area(f.uv, f.level, proj->uv.x(), proj->uv.y(), radius,
+    const std::vector<int> near = f.grid.features_in_area(proj->uv.x(), proj->uv.y(), radius,
                                                          std::max(0, proj->level - 1), proj->level + 1);
     int best = -1, best_distance = max_distance + 1;
     for (int i : near) {

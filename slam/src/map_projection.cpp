@@ -61,7 +61,7 @@ Candidate best_candidate(const Frame& frame, const ProjectedPoint& p, const Desc
                          const Map& map) {
   Candidate c;
   const std::vector<int> features =
-      frame.grid.features_in_area(frame.uv, frame.level, p.uv.x(), p.uv.y(), radius, p.level - 1, p.level);
+      frame.grid.features_in_area(p.uv.x(), p.uv.y(), radius, p.level - 1, p.level);
   for (int i : features) {
     if (!feature_is_free(frame, i, map)) continue;
     const auto index = static_cast<std::size_t>(i);

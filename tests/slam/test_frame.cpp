@@ -69,24 +69,24 @@ TEST(FeatureGrid, RadiusQueriesMatchBruteForce) {
   uv.emplace_back(std::nan(""), 100.0);
   uv.emplace_back(100.0, std::numeric_limits<double>::infinity());
   for (int i = 0; i < 4; ++i) level.push_back(0);
-  const FeatureGrid grid(uv, bounds);
+  const FeatureGrid grid(uv, level, bounds);
   for (int q = 0; q < 2000; ++q) {
     const double u = u_dist(rng), v = v_dist(rng), r = q % 50 == 0 ? 0.0 : r_dist(rng);
     const int min_level = q % 3 == 0 ? -1 : bound_dist(rng);
     const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
-    ASSERT_EQ(grid.features_in_area(uv, level, u, v, r, min_level, max_level),
+    ASSERT_EQ(grid.features_in_area(u, v, r, min_level, max_level),
               oracle(uv, level, bounds, u, v, r, min_level, max_level))
         << "query " << q << " at (" << u << ", " << v << ") r " << r;
   }
   // Radius exactly to a feature counts it; a huge radius returns every indexed feature.
   const std::vector<Eigen::Vector2d> one{{10.0, 10.0}};
-  const FeatureGrid small(one, bounds);
-  EXPECT_EQ(small.features_in_area(one, {}, 13.0, 14.0, 5.0), std::vector<int>{0});
-  EXPECT_TRUE(small.features_in_area(one, {}, 13.0, 14.0, 4.999).empty());
-  EXPECT_EQ(grid.features_in_area(uv, {}, 320.0, 240.0, 1e6).size(), oracle(uv, level, bounds, 0, 0, 1e9, -1, -1).size());
-  EXPECT_TRUE(grid.features_in_area(uv, level, std::nan(""), 10.0, 5.0).empty());
-  EXPECT_TRUE(grid.features_in_area(uv, level, 10.0, 10.0, -1.0).empty());
-  EXPECT_TRUE(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0).empty());
+  const FeatureGrid small(one, {}, bounds);
+  EXPECT_EQ(small.features_in_area(13.0, 14.0, 5.0), std::vector<int>{0});
+  EXPECT_TRUE(small.features_in_area(13.0, 14.0, 4.999).empty());
+  EXPECT_EQ(grid.features_in_area(320.0, 240.0, 1e6).size(), oracle(uv, level, bounds, 0, 0, 1e9, -1, -1).size());
+  EXPECT_TRUE(grid.features_in_area(std::nan(""), 10.0, 5.0).empty());
+  EXPECT_TRUE(grid.features_in_area(10.0, 10.0, -1.0).empty());
+  EXPECT_TRUE(FeatureGrid().features_in_area(10.0, 10.0, 5.0).empty());
 }
 
 // Queries whose square ends exactly on a feature that lies on a cell edge (or one ulp off it), on grids
@@ -110,7 +110,7 @@ TEST(FeatureGrid, QueriesEndingOnCellEdgesFindTheFeaturesThere) {
       }
     }
     const std::vector<int> level(uv.size(), 0);
-    const FeatureGrid grid(uv, bounds, cols, rows);
+    const FeatureGrid grid(uv, level, bounds, cols, rows);
     int found = 0;
     for (const Eigen::Vector2d& f : uv) {
       for (const double r : {0.0, 0.25 * cell_w, cell_w, 2.5 * cell_w}) {
@@ -118,7 +118,7 @@ TEST(FeatureGrid, QueriesEndingOnCellEdgesFindTheFeaturesThere) {
         for (const Eigen::Vector2d& q : {Eigen::Vector2d(f.x() + r, f.y()), Eigen::Vector2d(f.x() - r, f.y()),
                                          Eigen::Vector2d(f.x(), f.y() + r), Eigen::Vector2d(f.x(), f.y() - r)}) {
           const std::vector<int> expected = oracle(uv, level, bounds, q.x(), q.y(), r, -1, -1);
-          ASSERT_EQ(grid.features_in_area(uv, level, q.x(), q.y(), r), expected)
+          ASSERT_EQ(grid.features_in_area(q.x(), q.y(), r), expected)
               << "query (" << q.x() << ", " << q.y() << ") r " << r;
           found += static_cast<int>(expected.size());
         }
@@ -145,7 +145,7 @@ TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {
     uv.push_back(uv[static_cast<std::size_t>(i)]);
     level.push_back(level[static_cast<std::size_t>(i)]);
   }
-  const FeatureGrid grid(uv, bounds);
+  const FeatureGrid grid(uv, level, bounds);
   std::vector<int> found;
   for (int q = 0; q < 3000; ++q) {
     const double u = u_dist(rng), v = v_dist(rng), r = q % 50 == 0 ? 0.0 : r_dist(rng);
@@ -153,24 +153,26 @@ TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {
     const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
     found.assign(static_cast<std::size_t>(prefix_dist(rng)), -7);  // earlier contents stay
     const std::size_t prefix = found.size();
-    const std::size_t appended = grid.features_in_area(uv, level, u, v, r, min_level, max_level, found);
+    const std::size_t appended = grid.features_in_area(u, v, r, min_level, max_level, found);
     ASSERT_EQ(found.size(), prefix + appended);
     EXPECT_TRUE(std::all_of(found.begin(), found.begin() + static_cast<long>(prefix), [](int i) { return i == -7; }));
     std::vector<int> tail(found.begin() + static_cast<long>(prefix), found.end());
     std::sort(tail.begin(), tail.end());
     ASSERT_EQ(tail, oracle(uv, level, bounds, u, v, r, min_level, max_level)) << "query " << q;
-    ASSERT_EQ(tail, grid.features_in_area(uv, level, u, v, r, min_level, max_level));
+    ASSERT_EQ(tail, grid.features_in_area(u, v, r, min_level, max_level));
   }
   found.assign(2, 5);
-  EXPECT_EQ(grid.features_in_area(uv, level, std::nan(""), 10.0, 5.0, -1, -1, found), 0u);
-  EXPECT_EQ(grid.features_in_area(uv, level, 10.0, 10.0, -1.0, 0, 3, found), 0u);
-  EXPECT_EQ(FeatureGrid().features_in_area(uv, level, 10.0, 10.0, 5.0, -1, -1, found), 0u);
-  EXPECT_EQ(grid.features_in_area(uv, level, -500.0, 10.0, 20.0, -1, -1, found), 0u);  // off the grid
+  EXPECT_EQ(grid.features_in_area(std::nan(""), 10.0, 5.0, -1, -1, found), 0u);
+  EXPECT_EQ(grid.features_in_area(10.0, 10.0, -1.0, 0, 3, found), 0u);
+  EXPECT_EQ(FeatureGrid().features_in_area(10.0, 10.0, 5.0, -1, -1, found), 0u);
+  EXPECT_EQ(grid.features_in_area(-500.0, 10.0, 20.0, -1, -1, found), 0u);  // off the grid
   EXPECT_EQ(found, std::vector<int>(2, 5));
-  // Level bounds need the levels; fewer uv than the grid was built from is caught.
-  EXPECT_THROW(grid.features_in_area(uv, {}, 320.0, 240.0, 50.0, 0, 2, found), InvariantError);
-  const std::vector<Eigen::Vector2d> fewer(uv.begin(), uv.begin() + 10);
-  EXPECT_THROW(grid.features_in_area(fewer, {}, 320.0, 240.0, 1000.0, -1, -1, found), InvariantError);
+  // Level bounds need a grid built with levels; levels are one per feature or none.
+  const FeatureGrid no_levels(uv, {}, bounds);
+  EXPECT_THROW(no_levels.features_in_area(320.0, 240.0, 50.0, 0, 2, found), InvariantError);
+  EXPECT_EQ(no_levels.features_in_area(320.0, 240.0, 50.0), oracle(uv, level, bounds, 320.0, 240.0, 50.0, -1, -1));
+  const std::vector<int> fewer_levels(level.begin(), level.begin() + 10);
+  EXPECT_THROW(FeatureGrid(uv, fewer_levels, bounds), InvariantError);
 }
 
 // scan_area: every feature of the cells around the query once, flagged in-area exactly for the features
@@ -194,7 +196,7 @@ TEST(FeatureGrid, ScanFlagsExactlyTheFeaturesInTheArea) {
   }
   for (const auto& [cols, rows] : {std::pair<int, int>{64, 48}, {8, 6}, {200, 150}, {1, 1}}) {
     SCOPED_TRACE(std::to_string(cols) + "x" + std::to_string(rows));
-    const FeatureGrid grid(uv, bounds, cols, rows);
+    const FeatureGrid grid(uv, level, bounds, cols, rows);
     for (int q = 0; q < 1500; ++q) {
       const bool crowded = q % 5 == 0;
       const double u = crowded ? 200.0 + near(rng) : u_dist(rng);
@@ -202,11 +204,14 @@ TEST(FeatureGrid, ScanFlagsExactlyTheFeaturesInTheArea) {
       const double r = q % 50 == 0 ? 0.0 : r_dist(rng);
       const int min_level = q % 3 == 0 ? -1 : bound_dist(rng);
       const int max_level = q % 4 == 0 ? -1 : bound_dist(rng);
-      std::vector<int> visited, in_area;
+      std::vector<int> visited, in_area, offered;
       grid.scan_area(uv, level, u, v, r, min_level, max_level, [&](int i, bool inside) {
         visited.push_back(i);
         if (inside) in_area.push_back(i);
       });
+      // visit_area offers exactly the in-area ones, in the same (grid) order.
+      grid.visit_area(u, v, r, min_level, max_level, [&](int i) { offered.push_back(i); });
+      ASSERT_EQ(offered, in_area) << "query " << q;
       std::sort(in_area.begin(), in_area.end());
       ASSERT_EQ(in_area, oracle(uv, level, bounds, u, v, r, min_level, max_level)) << "query " << q;
       std::sort(visited.begin(), visited.end());
@@ -216,8 +221,50 @@ TEST(FeatureGrid, ScanFlagsExactlyTheFeaturesInTheArea) {
     grid.scan_area(uv, level, std::nan(""), 10.0, 5.0, -1, -1, [&](int, bool) { ++visits; });
     grid.scan_area(uv, level, 10.0, 10.0, -1.0, -1, -1, [&](int, bool) { ++visits; });
     grid.scan_area(uv, level, 10.0, 10.0, 5.0, 3, 2, [&](int, bool inside) { visits += inside ? 1 : 0; });
+    grid.visit_area(std::nan(""), 10.0, 5.0, -1, -1, [&](int) { ++visits; });
+    grid.visit_area(10.0, 10.0, -1.0, -1, -1, [&](int) { ++visits; });
+    grid.visit_area(200.0, 150.0, 50.0, 3, 2, [&](int) { ++visits; });  // empty level window
     EXPECT_EQ(visits, 0u);
   }
+}
+
+// The four-entry area test visit_area filters with: the SSE2 version (where built) agrees with the
+// portable one bit for bit, on random entries, boundary distances (exactly r) and level edges.
+TEST(FeatureGrid, FourWideAreaTestAgreesWithThePortableOne) {
+  std::mt19937 rng(45);
+  std::uniform_real_distribution<double> coordinate(-20.0, 20.0), radius(0.0, 15.0);
+  std::uniform_int_distribution<int> level_dist(0, 7), bound_dist(-1, 7);
+  int inside = 0;
+  for (int t = 0; t < 20000; ++t) {
+    double u[4], v[4];
+    int level[4];
+    const double qu = coordinate(rng), qv = coordinate(rng), r = radius(rng);
+    for (int k = 0; k < 4; ++k) {
+      u[k] = coordinate(rng);
+      v[k] = coordinate(rng);
+      level[k] = level_dist(rng);
+    }
+    if (t % 7 == 0) {  // on the circle: exactly at distance r
+      u[t % 4] = qu + r;
+      v[t % 4] = qv;
+    }
+    const int min_level = bound_dist(rng), max_level = bound_dist(rng);
+    const int lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
+    const int highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
+    const int portable = detail::in_area_mask4_portable(u, v, level, qu, qv, r * r, lowest, highest);
+    int expected = 0;
+    for (int k = 0; k < 4; ++k) {
+      const bool in = (u[k] - qu) * (u[k] - qu) + (v[k] - qv) * (v[k] - qv) <= r * r && level[k] >= lowest &&
+                      level[k] <= highest;
+      expected |= static_cast<int>(in) << k;
+    }
+    ASSERT_EQ(portable, expected) << "case " << t;
+#if defined(__SSE2__)
+    ASSERT_EQ(detail::in_area_mask4_sse2(u, v, level, qu, qv, r * r, lowest, highest), portable) << "case " << t;
+#endif
+    inside += __builtin_popcount(static_cast<unsigned>(portable));
+  }
+  EXPECT_GT(inside, 1000);  // the cases do put entries inside
 }
 
 Frame frame_with(const std::vector<Eigen::Vector2d>& uv, const std::vector<double>& depth) {
@@ -259,8 +306,8 @@ TEST(Frame, FinalizeFillsPerFeatureStateAndTheGrid) {
   EXPECT_EQ(frame.map_points, std::vector<MapPointId>(3, kNoMapPoint));
   EXPECT_EQ(frame.outlier, std::vector<bool>(3, false));
   EXPECT_FALSE(frame.grid.empty());
-  EXPECT_EQ(frame.grid.features_in_area(frame.uv, frame.level, 639.0, 479.0, 1.0), std::vector<int>{1});
-  EXPECT_EQ(frame.grid.features_in_area(frame.uv, frame.level, 320.0, 240.0, 400.0).size(), 3u);
+  EXPECT_EQ(frame.grid.features_in_area(639.0, 479.0, 1.0), std::vector<int>{1});
+  EXPECT_EQ(frame.grid.features_in_area(320.0, 240.0, 400.0).size(), 3u);
 
   Frame broken = frame_with({{10.0, 10.0}}, {});
   broken.level.clear();
@@ -268,7 +315,8 @@ TEST(Frame, FinalizeFillsPerFeatureStateAndTheGrid) {
   Frame empty;
   empty.finalize();
   EXPECT_EQ(empty.size(), 0u);
-  EXPECT_TRUE(empty.grid.features_in_area(empty.uv, empty.level, 0.0, 0.0, 10.0).empty());
+  EXPECT_TRUE(empty.grid.features_in_area(0.0, 0.0, 10.0).empty());
+  EXPECT_TRUE(empty.grid.features_in_area(0.0, 0.0, 10.0, 0, 2).empty());  // level bounds on no features
 }
 
 TEST(Frame, UndistortedBoundsHoldEveryUndistortedPixel) {

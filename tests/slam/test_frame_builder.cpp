@@ -90,7 +90,7 @@ TEST(FrameBuilder, RgbdFrameHasFeaturesDepthAndUndistortedCoordinates) {
     EXPECT_DOUBLE_EQ(f.depth_m[i], expected);
     EXPECT_NEAR(f.u_right[i], f.uv[i].x() - 40.0 / expected, 1e-9);
     // The grid finds every feature at its own coordinates.
-    const std::vector<int> near = f.grid.features_in_area(f.uv, f.level, f.uv[i].x(), f.uv[i].y(), 0.5);
+    const std::vector<int> near = f.grid.features_in_area(f.uv[i].x(), f.uv[i].y(), 0.5);
     EXPECT_NE(std::find(near.begin(), near.end(), static_cast<int>(i)), near.end());
   }
   EXPECT_EQ(result.features_with_depth, with_depth);

@@ -10,6 +10,10 @@
 #include <optional>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
@@ -57,63 +61,118 @@ struct ImageBounds {
 // fails are skipped; a camera without distortion gives ImageBounds::of_image.
 ImageBounds undistorted_image_bounds(const core::PinholeCamera& raw);
 
-// Buckets of feature indices over the undistorted image for radius queries (ORB-SLAM's 64x48 grid).
-// The grid borrows nothing: queries take the same uv (and level) vectors it was built from.
-// Stored contiguously (compressed rows): the indices of all cells in one array, cell by cell in row-major
-// order and ascending within a cell, and each cell's start in it; a query scans one slice per grid row.
+namespace detail {
+// Which of four consecutive grid entries lie in a query's area (bit k: entry k), with the arithmetic of
+// the scalar test: (u - qu)^2 + (v - qv)^2 <= r2 in doubles, lowest <= level <= highest. The portable
+// version, and the SSE2 one FeatureGrid::visit_area uses where the compiler targets SSE2 (every x86-64);
+// tests check that they agree.
+inline int in_area_mask4_portable(const double* u, const double* v, const int* level, double qu, double qv, double r2,
+                                  int lowest, int highest) {
+  int mask = 0;
+  for (int k = 0; k < 4; ++k) {
+    const double du = u[k] - qu;
+    const double dv = v[k] - qv;
+    const bool in = du * du + dv * dv <= r2 && level[k] >= lowest && level[k] <= highest;
+    mask |= static_cast<int>(in) << k;
+  }
+  return mask;
+}
+#if defined(__SSE2__)
+inline int in_area_mask4_sse2(const double* u, const double* v, const int* level, double qu, double qv, double r2,
+                              int lowest, int highest) {
+  const __m128d q_u = _mm_set1_pd(qu);
+  const __m128d q_v = _mm_set1_pd(qv);
+  const __m128d radius2 = _mm_set1_pd(r2);
+  const __m128d du01 = _mm_sub_pd(_mm_loadu_pd(u), q_u);
+  const __m128d du23 = _mm_sub_pd(_mm_loadu_pd(u + 2), q_u);
+  const __m128d dv01 = _mm_sub_pd(_mm_loadu_pd(v), q_v);
+  const __m128d dv23 = _mm_sub_pd(_mm_loadu_pd(v + 2), q_v);
+  const __m128d d01 = _mm_add_pd(_mm_mul_pd(du01, du01), _mm_mul_pd(dv01, dv01));
+  const __m128d d23 = _mm_add_pd(_mm_mul_pd(du23, du23), _mm_mul_pd(dv23, dv23));
+  const int near = _mm_movemask_pd(_mm_cmple_pd(d01, radius2)) | (_mm_movemask_pd(_mm_cmple_pd(d23, radius2)) << 2);
+  const __m128i l = _mm_loadu_si128(reinterpret_cast<const __m128i*>(level));
+  const __m128i outside = _mm_or_si128(_mm_cmplt_epi32(l, _mm_set1_epi32(lowest)), _mm_cmpgt_epi32(l, _mm_set1_epi32(highest)));
+  return near & ~_mm_movemask_ps(_mm_castsi128_ps(outside)) & 0xF;
+}
+#endif
+inline int in_area_mask4(const double* u, const double* v, const int* level, double qu, double qv, double r2, int lowest,
+                         int highest) {
+#if defined(__SSE2__)
+  return in_area_mask4_sse2(u, v, level, qu, qv, r2, lowest, highest);
+#else
+  return in_area_mask4_portable(u, v, level, qu, qv, r2, lowest, highest);
+#endif
+}
+}  // namespace detail
+
+// Buckets of features over the undistorted image for radius queries (ORB-SLAM's 64x48 grid). Stored
+// contiguously (compressed rows): the entries of all cells in one sequence, cell by cell in row-major
+// order and by ascending feature index within a cell, with each cell's start; a query reads one slice per
+// grid row. Each entry holds a copy of its feature's index, position and level (structure of arrays), so
+// that a query reads its slices front to back, and four entries at a time where it filters them (SIMD).
+// The grid therefore describes the uv and levels it was built from: build it again when they change.
 class FeatureGrid {
  public:
   FeatureGrid() = default;
   // Features outside [min_u, max_u) x [min_v, max_v) (and non-finite ones) are not indexed. An empty
-  // area (max <= min) is widened to one pixel so that the grid stays valid.
-  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, double min_u, double max_u, double min_v, double max_v,
-              int cols = 64, int rows = 48);
-  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, const ImageBounds& bounds, int cols = 64, int rows = 48)
-      : FeatureGrid(uv, bounds.min_u, bounds.max_u, bounds.min_v, bounds.max_v, cols, rows) {}
+  // area (max <= min) is widened to one pixel so that the grid stays valid. `level` has one entry per
+  // feature, or none: then queries cannot bound the level (unless there are no features).
+  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double min_u, double max_u,
+              double min_v, double max_v, int cols = 64, int rows = 48);
+  FeatureGrid(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, const ImageBounds& bounds,
+              int cols = 64, int rows = 48)
+      : FeatureGrid(uv, level, bounds.min_u, bounds.max_u, bounds.min_v, bounds.max_v, cols, rows) {}
 
   // Indices of indexed features at distance <= radius_px of (u, v) (cells overlapping the query square,
   // then the exact distance), optionally only those whose level is in [min_level, max_level] (-1: no
-  // bound; `level` may be empty when neither bound is given). Sorted ascending. A non-finite query or
-  // a negative radius gives no features.
-  std::vector<int> features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level,
-                                    double u, double v, double radius_px, int min_level = -1,
-                                    int max_level = -1) const;
+  // bound). Sorted ascending. A non-finite query or a negative radius gives no features.
+  std::vector<int> features_in_area(double u, double v, double radius_px, int min_level = -1, int max_level = -1) const;
   // The same features, appended to `found` (its contents are kept; no allocation once its capacity
   // suffices, so one vector can serve many queries) in grid order: by cell row, then cell column,
   // ascending within a cell, so NOT sorted across cells (sort the appended range for index order).
   // Returns how many were appended.
-  std::size_t features_in_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
-                               double v, double radius_px, int min_level, int max_level,
+  std::size_t features_in_area(double u, double v, double radius_px, int min_level, int max_level,
                                std::vector<int>& found) const;
+  // features_in_area's features, offered in grid order as visit(index), without a list in between: the
+  // entries of each slice are tested four at a time and only those in the area are visited. For callers
+  // with work on few candidates. Inline (below).
+  template <class Visit>
+  void visit_area(double u, double v, double radius_px, int min_level, int max_level, Visit&& visit) const;
   // Every indexed feature of the cells that the query square overlaps, offered in grid order as
   // visit(index, in_area), where in_area says whether it is one of features_in_area's (distance <=
   // radius_px, level within the bounds). For callers that fold the test into their own per-candidate work
   // without branching on it: which features pass is unpredictable, and a mispredicted branch costs more
   // than a little work on a feature that does not count. Nothing is visited when features_in_area would
-  // return nothing for want of a valid query or grid. Inline (below).
+  // return nothing for want of a valid query, level window or grid. Inline (below).
+  // It reads each feature's position and level by its index from `uv` and `level`, the vectors the grid
+  // was built from (level may be empty when the grid was built without levels), rather than from the
+  // grid's entries: each feature's reads then depend only on its index, which measured faster for this
+  // scan (the distance computations of stage 1 of the projection matcher), where visit_area reads the
+  // entries in order.
   template <class Visit>
   void scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                  double radius_px, int min_level, int max_level, Visit&& visit) const;
   bool empty() const { return cell_start_.empty(); }
-  // Same cells, bounds and indices (map files are compared with it).
+  // Same cells, bounds and entries (map files are compared with it).
   bool operator==(const FeatureGrid& o) const {
     return cols_ == o.cols_ && rows_ == o.rows_ && std::memcmp(&min_u_, &o.min_u_, sizeof min_u_) == 0 &&
            std::memcmp(&min_v_, &o.min_v_, sizeof min_v_) == 0 && std::memcmp(&cell_w_, &o.cell_w_, sizeof cell_w_) == 0 &&
-           std::memcmp(&cell_h_, &o.cell_h_, sizeof cell_h_) == 0 && cell_start_ == o.cell_start_ &&
-           indices_ == o.indices_;
+           std::memcmp(&cell_h_, &o.cell_h_, sizeof cell_h_) == 0 && has_levels_ == o.has_levels_ &&
+           built_from_ == o.built_from_ &&
+           cell_start_ == o.cell_start_ && index_ == o.index_ && level_ == o.level_ && same_bits(u_, o.u_) &&
+           same_bits(v_, o.v_);
   }
 
  private:
-  // The query square's cells [x0, x1] x [y0, y1], as the constructor assigns features to cells; false
-  // when the grid is empty, the query invalid (non-finite centre, negative radius) or the square misses
-  // the grid. Checks that level bounds come with one level per feature.
-  bool query_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
-                   double radius_px, int min_level, int max_level, int& x0, int& x1, int& y0, int& y1) const;
-  // scan_area's loop over the cells query_cells found (kCheckLevel: min_level or max_level given).
-  template <bool kCheckLevel, class Visit>
-  void scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
-                  double radius_px, int min_level, int max_level, int x0, int x1, int y0, int y1,
-                  Visit&& visit) const;
+  // The query's cells [x0, x1] x [y0, y1], as the constructor assigns features to cells, and its level
+  // window [lowest, highest] (an unbounded side: the int limit); false when the grid is empty, the query
+  // invalid (non-finite centre, negative radius), the level window empty or the square misses the grid.
+  // Checks that level bounds come with a grid built with levels.
+  struct Cells {
+    int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+    int lowest = 0, highest = 0;
+  };
+  bool query_cells(double u, double v, double radius_px, int min_level, int max_level, Cells& cells) const;
   // Cell range along one axis: the cells floor((lo - origin) / cell_size) .. floor((hi - origin) /
   // cell_size), clamped to [0, count - 1], as the constructor assigns features to cells; false when
   // [lo, hi] misses the grid. Multiplied by the reciprocal instead of divided (the divisions were a
@@ -130,6 +189,13 @@ class FeatureGrid {
     last = to < count - 1.0 ? static_cast<int>(to) : count - 1;
     return true;
   }
+  // scan_area's loop over the query's cells (kCheckLevel: a level bound was given).
+  template <bool kCheckLevel, class Visit>
+  void scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
+                  double r2, unsigned lowest, unsigned span, const Cells& c, Visit&& visit) const;
+  static bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0);
+  }
   static constexpr double kCellSlack = 1e-9;
 
   int cols_ = 0;
@@ -137,81 +203,102 @@ class FeatureGrid {
   double min_u_ = 0.0, min_v_ = 0.0;
   double cell_w_ = 1.0, cell_h_ = 1.0;
   double inv_cell_w_ = 1.0, inv_cell_h_ = 1.0;  // 1 / cell_w_, 1 / cell_h_ (queries)
-  // Cell c (row-major, y * cols + x) holds indices_[cell_start_[c], cell_start_[c + 1]); cols * rows + 1
-  // entries once built, none for a default-constructed grid.
+  bool has_levels_ = false;
+  std::size_t built_from_ = 0;  // features in the uv the grid was built from
+  // Cell c (row-major, y * cols + x) holds entries [cell_start_[c], cell_start_[c + 1]); cols * rows + 1
+  // starts once built, none for a default-constructed grid.
   std::vector<int> cell_start_;
-  std::vector<int> indices_;  // followed by kGatherSlice spare entries
-  // scan_cells copies slices kGatherSlice indices at a time into a buffer of kGatherMax.
+  // The entries: feature index, u, v and level (0 without levels), each followed by kGatherSlice spare
+  // entries (scan_area's gathering and visit_area's four-wide reads run into them).
+  std::vector<int> index_;
+  std::vector<double> u_;
+  std::vector<double> v_;
+  std::vector<int> level_;
+  // scan_area gathers the entries of slices kGatherSlice at a time into a buffer of kGatherMax.
   static constexpr int kGatherSlice = 16;
   static constexpr int kGatherMax = 256;
 };
 
-inline bool FeatureGrid::query_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u,
-                                     double v, double radius_px, int min_level, int max_level, int& x0, int& x1,
-                                     int& y0, int& y1) const {
+inline bool FeatureGrid::query_cells(double u, double v, double radius_px, int min_level, int max_level,
+                                     Cells& cells) const {
   if (cell_start_.empty() || !(std::isfinite(u) && std::isfinite(v) && radius_px >= 0.0)) return false;
-  FLEETSLAM_CHECK((min_level < 0 && max_level < 0) || level.size() == uv.size(),
-                  "level bounds need one level per feature");
-  return cell_range(u - radius_px, u + radius_px, min_u_, inv_cell_w_, cols_, x0, x1) &&
-         cell_range(v - radius_px, v + radius_px, min_v_, inv_cell_h_, rows_, y0, y1);
+  FLEETSLAM_CHECK((min_level < 0 && max_level < 0) || has_levels_,
+                  "FeatureGrid: level bounds need a grid built with one level per feature");
+  cells.lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
+  cells.highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
+  if (cells.lowest > cells.highest) return false;
+  return cell_range(u - radius_px, u + radius_px, min_u_, inv_cell_w_, cols_, cells.x0, cells.x1) &&
+         cell_range(v - radius_px, v + radius_px, min_v_, inv_cell_h_, rows_, cells.y0, cells.y1);
+}
+
+template <class Visit>
+void FeatureGrid::visit_area(double u, double v, double radius_px, int min_level, int max_level, Visit&& visit) const {
+  Cells c;
+  if (!query_cells(u, v, radius_px, min_level, max_level, c)) return;
+  const double r2 = radius_px * radius_px;
+  const int* row = cell_start_.data() + static_cast<std::ptrdiff_t>(c.y0) * cols_;
+  for (int y = c.y0; y <= c.y1; ++y, row += cols_) {
+    const int end = row[c.x1 + 1];
+    for (int first = row[c.x0]; first < end; first += 4) {
+      const auto f = static_cast<std::size_t>(first);
+      // Entries past the slice (the next cells', or the spare ones) are masked off.
+      const int valid = end - first >= 4 ? 0xF : (1 << (end - first)) - 1;
+      int mask = detail::in_area_mask4(&u_[f], &v_[f], &level_[f], u, v, r2, c.lowest, c.highest) & valid;
+      while (mask != 0) {
+        const int k = __builtin_ctz(static_cast<unsigned>(mask));
+        mask &= mask - 1;
+        visit(index_[f + static_cast<std::size_t>(k)]);
+      }
+    }
+  }
 }
 
 template <class Visit>
 void FeatureGrid::scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                             double radius_px, int min_level, int max_level, Visit&& visit) const {
-  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-  if (!query_cells(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1)) return;
-  if (min_level >= 0 || max_level >= 0) {
-    scan_cells<true>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, visit);
+  Cells c;
+  if (!query_cells(u, v, radius_px, min_level, max_level, c)) return;
+  FLEETSLAM_CHECK(uv.size() == built_from_ && level.size() == (has_levels_ ? built_from_ : 0),
+                  "FeatureGrid::scan_area: uv and level must be the vectors the grid was built from");
+  // The level window [lowest, highest] as one unsigned comparison: level - lowest <= span (modulo 2^32),
+  // made only when a bound is given.
+  const double r2 = radius_px * radius_px;
+  const auto lowest = static_cast<unsigned>(c.lowest);
+  const unsigned span = static_cast<unsigned>(c.highest) - lowest;
+  if (min_level >= 0 || max_level >= 0) {  // the grid has levels (query_cells checked)
+    scan_cells<true>(uv, level, u, v, r2, lowest, span, c, visit);
   } else {
-    scan_cells<false>(uv, level, u, v, radius_px, min_level, max_level, x0, x1, y0, y1, visit);
+    scan_cells<false>(uv, level, u, v, r2, lowest, span, c, visit);
   }
 }
 
 template <bool kCheckLevel, class Visit>
 void FeatureGrid::scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
-                             double radius_px, int min_level, int max_level, int x0, int x1, int y0, int y1,
-                             Visit&& visit) const {
-  // The level window [lowest, lowest + span] as one unsigned comparison: level - lowest <= span (modulo
-  // 2^32); an unbounded side becomes a bound every level meets. An empty window (min_level > max_level)
-  // keeps nothing through a negative squared radius instead, so that every feature is still visited (and
-  // checked against uv's size) as with any other window.
-  double r2 = radius_px * radius_px;
-  const int lowest = min_level >= 0 ? min_level : std::numeric_limits<int>::min();
-  const int highest = max_level >= 0 ? max_level : std::numeric_limits<int>::max();
-  unsigned span = static_cast<unsigned>(highest) - static_cast<unsigned>(lowest);
-  if (lowest > highest) {
-    r2 = -1.0;
-    span = 0;
-  }
-  const std::size_t size = uv.size();
+                             double r2, unsigned lowest, unsigned span, const Cells& c, Visit&& visit) const {
   const Eigen::Vector2d* const points = uv.data();
   const int* const levels = level.data();
   const auto visit_one = [&](int i) {
     const auto k = static_cast<std::size_t>(i);
-    FLEETSLAM_CHECK(k < size, "FeatureGrid queried with fewer features than it was built from");
     const double du = points[k].x() - u;
     const double dv = points[k].y() - v;
     bool in_area = du * du + dv * dv <= r2;
-    if constexpr (kCheckLevel) {
-      in_area = in_area & (static_cast<unsigned>(levels[k]) - static_cast<unsigned>(lowest) <= span);
-    }
+    if constexpr (kCheckLevel) in_area = in_area & (static_cast<unsigned>(levels[k]) - lowest <= span);
     visit(i, in_area);
   };
-  // Cells x0 .. x1 of a row are one contiguous slice of indices_. The slices are copied into one buffer,
-  // kGatherSlice indices each whatever their length (indices_ ends in kGatherSlice spare entries for the
-  // copy to run into), and visited in one loop: nested loops would mispredict the end of every slice, as
-  // their lengths vary from query to query. A longer slice, or more than the buffer holds, takes the
-  // nested loops (nothing has been visited then).
-  const int* const indices = indices_.data();
-  const int* const first_row = cell_start_.data() + static_cast<std::ptrdiff_t>(y0) * cols_;
+  // Cells x0 .. x1 of a row are one contiguous slice of entries. The slices' feature indices are copied
+  // into one buffer, kGatherSlice each whatever their length (the entries end in kGatherSlice spare ones
+  // for the copy to run into), and visited in one loop: nested loops would mispredict the end of every
+  // slice, as their lengths vary from query to query. A longer slice, or more than the buffer holds,
+  // takes the nested loops (nothing has been visited then).
+  const int* const indices = index_.data();
+  const int* const first_row = cell_start_.data() + static_cast<std::ptrdiff_t>(c.y0) * cols_;
   int gathered[kGatherMax];
   int count = 0;
   bool all_gathered = true;
   const int* row = first_row;
-  for (int y = y0; y <= y1; ++y, row += cols_) {
-    const int begin = row[x0];
-    const int length = row[x1 + 1] - begin;
+  for (int y = c.y0; y <= c.y1; ++y, row += cols_) {
+    const int begin = row[c.x0];
+    const int length = row[c.x1 + 1] - begin;
     if (length > kGatherSlice || count > kGatherMax - kGatherSlice) {
       all_gathered = false;
       break;
@@ -224,9 +311,9 @@ void FeatureGrid::scan_cells(const std::vector<Eigen::Vector2d>& uv, const std::
     return;
   }
   row = first_row;
-  for (int y = y0; y <= y1; ++y, row += cols_) {
-    const int* const end = indices + row[x1 + 1];
-    for (const int* it = indices + row[x0]; it != end; ++it) visit_one(*it);
+  for (int y = c.y0; y <= c.y1; ++y, row += cols_) {
+    const int* const end = indices + row[c.x1 + 1];
+    for (const int* it = indices + row[c.x0]; it != end; ++it) visit_one(*it);
   }
 }
 
