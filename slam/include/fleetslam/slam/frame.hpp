@@ -109,8 +109,8 @@ inline int in_area_mask4(const double* u, const double* v, const int* level, dou
 // contiguously (compressed rows): the entries of all cells in one sequence, cell by cell in row-major
 // order and by ascending feature index within a cell, with each cell's start; a query reads one slice per
 // grid row. Each entry holds a copy of its feature's index, position and level (structure of arrays), so
-// that a query reads its slices front to back, and four entries at a time where it filters them (SIMD).
-// The grid therefore describes the uv and levels it was built from: build it again when they change.
+// that visit_area reads its slices front to back, four entries at a time (SIMD). The grid therefore
+// describes the uv and levels it was built from: build it again when they change.
 class FeatureGrid {
  public:
   FeatureGrid() = default;
@@ -144,11 +144,10 @@ class FeatureGrid {
   // without branching on it: which features pass is unpredictable, and a mispredicted branch costs more
   // than a little work on a feature that does not count. Nothing is visited when features_in_area would
   // return nothing for want of a valid query, level window or grid. Inline (below).
-  // It reads each feature's position and level by its index from `uv` and `level`, the vectors the grid
-  // was built from (level may be empty when the grid was built without levels), rather than from the
-  // grid's entries: each feature's reads then depend only on its index, which measured faster for this
-  // scan (the distance computations of stage 1 of the projection matcher), where visit_area reads the
-  // entries in order.
+  // Each feature's position and level are read by its index from `uv` and `level`, the vectors the grid
+  // was built from (`level` empty when it was built without levels), not from the grid's entries: its
+  // reads then depend on the index alone, as its descriptor's do. Stage 1 of the projection matcher, the
+  // caller, measured about 5 % slower reading the entries.
   template <class Visit>
   void scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                  double radius_px, int min_level, int max_level, Visit&& visit) const;

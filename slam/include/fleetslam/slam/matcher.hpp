@@ -30,7 +30,8 @@
 // Deterministic: results depend only on the inputs. Frames must be finalize()d (their grids are used).
 // Cost: one grid search per B feature with a 3D point (stage 1) and, with cross-validation, one smaller
 // search per stage-1 match whose B feature passes the level and r2 tests itself (stage 2); candidates are
-// taken from FeatureGrid::scan_area as they come, without allocating.
+// taken from the grid as they come (FeatureGrid::scan_area in stage 1, visit_area in stage 2), without
+// allocating.
 
 #include <cstdint>
 #include <optional>
