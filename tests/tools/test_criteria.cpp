@@ -86,6 +86,49 @@ TEST(Criteria, EachCriterionJudgesItsValue) {
   EXPECT_TRUE(judge(c, metrics())["passed"].get<bool>());
 }
 
+// The truth judges the mission's "reached": the largest true distance over a robot's reached goals.
+TEST(Criteria, GoalTrueDistanceJudgesTheFarthestReachedGoal) {
+  nlohmann::json m = metrics();
+  m["robots"][0]["goals_reached_true_distance_m"] = {0.1, 0.31, 0.2, 0.05};
+  m["robots"][1]["goals_reached_true_distance_m"] = {0.1, 0.2, 0.3};
+  CriteriaConfig c;
+  c.max_goal_true_distance_m = 0.3;
+  nlohmann::json v = judge(c, m);
+  ASSERT_EQ(v["criteria"].size(), 2u);
+  const nlohmann::json* a = find(v, "goal_true_distance_m", "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_FALSE((*a)["passed"].get<bool>());
+  EXPECT_DOUBLE_EQ((*a)["value"].get<double>(), 0.31);
+  EXPECT_EQ((*a)["comparison"], "<=");
+  const nlohmann::json* b = find(v, "goal_true_distance_m", "b");
+  ASSERT_NE(b, nullptr);
+  EXPECT_TRUE((*b)["passed"].get<bool>());  // at the limit
+  EXPECT_FALSE(v["passed"].get<bool>());
+  // No goal reached: nothing to judge, a failure with a note; no goals given: vacuous, said.
+  m["robots"][0]["goals_reached_true_distance_m"] = nlohmann::json::array();
+  a = find(v = judge(c, m), "goal_true_distance_m", "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_FALSE((*a)["passed"].get<bool>());
+  EXPECT_TRUE((*a)["value"].is_null());
+  EXPECT_EQ((*a)["note"], "no goal reached");
+  m["robots"][0]["goals_total"] = 0;
+  a = find(v = judge(c, m), "goal_true_distance_m", "a");
+  ASSERT_NE(a, nullptr);
+  EXPECT_TRUE((*a)["passed"].get<bool>());
+  EXPECT_EQ((*a)["note"], "no goals given");
+  // A missing or malformed list is not measured; a robot that is not planned is not judged.
+  m["robots"][0]["goals_total"] = 4;
+  m["robots"][0].erase("goals_reached_true_distance_m");
+  m["robots"][1]["goals_reached_true_distance_m"] = {0.1, "far"};
+  v = judge(c, m);
+  EXPECT_EQ((*find(v, "goal_true_distance_m", "a"))["note"], "not measured");
+  EXPECT_TRUE((*find(v, "goal_true_distance_m", "b"))["value"].is_null());
+  m["robots"][1]["planned"] = false;
+  EXPECT_EQ(find(judge(c, m), "goal_true_distance_m", "b"), nullptr);
+  // With no robot at all the criterion fails rather than pass on nothing.
+  EXPECT_FALSE(judge(c, nlohmann::json{{"robots", nlohmann::json::array()}})["passed"].get<bool>());
+}
+
 // A frame without a pose counts whatever the reason: a robot that never started a map (no frame lost,
 // none tracked) has lost every frame.
 TEST(Criteria, LostShareCountsEveryFrameWithoutAPose) {

@@ -2,7 +2,9 @@
 
 #include "fleetslam/runner/criteria.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -19,6 +21,18 @@ std::optional<double> number_at(const nlohmann::json& j, std::initializer_list<c
   if (!node->is_number()) return std::nullopt;
   const double value = node->get<double>();
   return std::isfinite(value) ? std::optional<double>(value) : std::nullopt;
+}
+
+// The largest of metrics[key], an array of finite numbers; nullopt when it is missing, empty or holds
+// anything else.
+std::optional<double> largest_number(const nlohmann::json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_array() || j[key].empty()) return std::nullopt;
+  double largest = -std::numeric_limits<double>::infinity();
+  for (const nlohmann::json& value : j[key]) {
+    if (!value.is_number() || !std::isfinite(value.get<double>())) return std::nullopt;
+    largest = std::max(largest, value.get<double>());
+  }
+  return largest;
 }
 
 class Verdict {
@@ -45,7 +59,8 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
   const nlohmann::json robots =
       metrics.is_object() && metrics.contains("robots") && metrics["robots"].is_array() ? metrics["robots"] : nlohmann::json::array();
   // Per-robot criteria with no robot to judge fail (they would otherwise add nothing and pass).
-  const bool per_robot = c.max_ate_m >= 0.0 || c.max_lost_share >= 0.0 || c.no_collisions || c.goals_reached;
+  const bool per_robot = c.max_ate_m >= 0.0 || c.max_lost_share >= 0.0 || c.no_collisions || c.goals_reached ||
+                         c.max_goal_true_distance_m >= 0.0;
   if (per_robot && robots.empty()) verdict.add("robots", "", std::nullopt, 1.0, false, "no robots to judge");
   for (const nlohmann::json& robot : robots) {
     const auto name_field = robot.find("name");
@@ -65,8 +80,9 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
     }
     if (c.no_collisions) verdict.add("collisions", name, number_at(robot, {"collisions"}), 0.0, true);
     const auto planned = robot.find("planned");
-    if (c.goals_reached && planned != robot.end() && planned->is_boolean() && *planned == true) {
-      const std::optional<double> total = number_at(robot, {"goals_total"});
+    const bool is_planned = planned != robot.end() && planned->is_boolean() && *planned == true;
+    const std::optional<double> total = number_at(robot, {"goals_total"});
+    if (c.goals_reached && is_planned) {
       const std::optional<double> reached = number_at(robot, {"goals_reached"});
       std::optional<double> share;
       if (total && reached) share = *total > 0 ? *reached / *total : 1.0;
@@ -75,6 +91,19 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
       // Vacuous (exploration may leave a robot no frontier), but said: coverage and lost_share judge the rest.
       if (total && *total == 0.0) note = "no goals given";
       verdict.add("goals_reached_share", name, share, 1.0, false, note);
+    }
+    if (c.max_goal_true_distance_m >= 0.0 && is_planned) {
+      // The mission counts a goal reached from the robot's estimate; the true body's distance judges that.
+      std::optional<double> farthest = largest_number(robot, "goals_reached_true_distance_m");
+      std::string note;
+      if (!farthest && total && *total == 0.0) {
+        farthest = 0.0;  // vacuous, as above
+        note = "no goals given";
+      } else if (!farthest && robot.contains("goals_reached_true_distance_m") &&
+                 robot["goals_reached_true_distance_m"].is_array() && robot["goals_reached_true_distance_m"].empty()) {
+        note = "no goal reached";
+      }
+      verdict.add("goal_true_distance_m", name, farthest, c.max_goal_true_distance_m, true, note);
     }
   }
   const std::optional<double> map_points = number_at(metrics, {"merged_map_accuracy", "map_points"});

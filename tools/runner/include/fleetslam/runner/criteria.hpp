@@ -14,7 +14,8 @@
 namespace fleetslam::runner {
 
 // metrics: {"robots": [{"name", "frames", "tracked" (frames with a pose), "collisions", "planned", "goals_total", "goals_reached",
-//            "ate_world_m": {"rmse"}}], "merged_map_accuracy": {"mean_m", "p95_m", "completeness"},
+//            "goals_reached_true_distance_m" (one per goal reached), "ate_world_m": {"rmse"}}],
+//            "merged_map_accuracy": {"mean_m", "p95_m", "completeness"},
 //            "coverage": {"final"}, "real_time_factor"}
 nlohmann::json judge(const CriteriaConfig& criteria, const nlohmann::json& metrics);
 

@@ -135,6 +135,9 @@ struct CriteriaConfig {
   double max_lost_share = -1.0;           // every robot: share of its frames without a pose
   bool no_collisions = false;             // no robot touches the scene or another robot
   bool goals_reached = false;             // planned missions: every goal of every ground robot reached
+  // Planned missions: for every goal the mission counted reached (from the robot's estimate), how far the
+  // true body was from it at that moment; the largest, per robot, at most this.
+  double max_goal_true_distance_m = -1.0;
 
   template <class V>
   void visit(V& v) {
@@ -148,6 +151,7 @@ struct CriteriaConfig {
     v("max_lost_share", max_lost_share, any);
     v("no_collisions", no_collisions);
     v("goals_reached", goals_reached);
+    v("max_goal_true_distance_m", max_goal_true_distance_m, any);
   }
 };
 
