@@ -25,7 +25,8 @@
 #ifndef FLEETSLAM_POPCNT_CLONES
 #define FLEETSLAM_POPCNT_CLONES
 #endif
-// The grid searches below pass their per-candidate work to FeatureGrid::scan_area as a lambda: flattened
+// The grid searches below pass their per-candidate work to FeatureGrid::scan_area or visit_area as a
+// lambda: flattened
 // into the POPCNT clones, or the lambda would be compiled on its own for the default CPU (a libgcc call
 // per popcount).
 #if defined(__has_attribute)
@@ -110,6 +111,8 @@ void check_frame(const Frame& frame, const char* name, bool needs_angles) {
                   "frame " + which + ": descriptors must be N x 32 CV_8UC1");
   FLEETSLAM_CHECK(!needs_angles || frame.keypoints.size() == n,
                   "frame " + which + ": the rotation check needs one keypoint (angle) per feature");
+  FLEETSLAM_CHECK(frame.grid.empty() || frame.grid.features() == n,
+                  "frame " + which + ": its grid was built from another set of features (call finalize() again)");
   for (const int l : frame.level) {
     FLEETSLAM_CHECK(l >= 0 && static_cast<std::size_t>(l) < frame.pyramid.scale.size(),
                     "frame " + which + ": feature level outside the scale pyramid");

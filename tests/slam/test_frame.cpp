@@ -173,6 +173,12 @@ TEST(FeatureGrid, AppendingQueriesMatchBruteForceAndKeepTheVector) {
   EXPECT_EQ(no_levels.features_in_area(320.0, 240.0, 50.0), oracle(uv, level, bounds, 320.0, 240.0, 50.0, -1, -1));
   const std::vector<int> fewer_levels(level.begin(), level.begin() + 10);
   EXPECT_THROW(FeatureGrid(uv, fewer_levels, bounds), InvariantError);
+  EXPECT_EQ(grid.features(), uv.size());
+  // scan_area reads the vectors the grid was built from: others are caught.
+  const std::vector<Eigen::Vector2d> fewer(uv.begin(), uv.begin() + 10);
+  EXPECT_THROW(grid.scan_area(fewer, level, 320.0, 240.0, 50.0, -1, -1, [](int, bool) {}), InvariantError);
+  EXPECT_THROW(grid.scan_area(uv, fewer_levels, 320.0, 240.0, 50.0, -1, -1, [](int, bool) {}), InvariantError);
+  EXPECT_THROW(no_levels.scan_area(uv, level, 320.0, 240.0, 50.0, -1, -1, [](int, bool) {}), InvariantError);
 }
 
 // scan_area: every feature of the cells around the query once, flagged in-area exactly for the features

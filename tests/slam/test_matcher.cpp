@@ -15,6 +15,8 @@
 #include <set>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 #include "fleetslam/slam/matcher.hpp"
@@ -724,6 +726,19 @@ TEST(Matchers, InconsistentInputIsAnInvariantError) {
   MatcherConfig no_rotation_check = single_stage();
   no_rotation_check.check_orientation = false;
   EXPECT_NO_THROW(match_by_projection(scene.a, FeaturePoints(3), no_angles, scene.p_b, scene.T_a_b, no_rotation_check));
+  // A frame whose features changed after finalize() has a stale grid: caught, not read out of range.
+  Frame grown = scene.a;
+  grown.uv.push_back(grown.uv.front());
+  grown.level.push_back(grown.level.front());
+  grown.keypoints.push_back(grown.keypoints.front());
+  grown.depth_m.push_back(grown.depth_m.front());
+  grown.u_right.push_back(grown.u_right.front());
+  cv::vconcat(grown.descriptors, grown.descriptors.row(0), grown.descriptors);
+  FeaturePoints grown_points = scene.p_a;
+  grown_points.push_back(grown_points.front());
+  EXPECT_THROW(match_by_projection(grown, grown_points, scene.b, scene.p_b, scene.T_a_b, MatcherConfig{}), InvariantError);
+  grown.finalize();
+  EXPECT_NO_THROW(match_by_projection(grown, grown_points, scene.b, scene.p_b, scene.T_a_b, MatcherConfig{}));
 }
 
 TEST(Projection, RatioTestAndDistanceThreshold) {

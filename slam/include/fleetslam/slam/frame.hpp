@@ -152,6 +152,8 @@ class FeatureGrid {
   void scan_area(const std::vector<Eigen::Vector2d>& uv, const std::vector<int>& level, double u, double v,
                  double radius_px, int min_level, int max_level, Visit&& visit) const;
   bool empty() const { return cell_start_.empty(); }
+  // How many features the grid was built from (indexed or not): its indices are below this.
+  std::size_t features() const { return built_from_; }
   // Same cells, bounds and entries (map files are compared with it).
   bool operator==(const FeatureGrid& o) const {
     return cols_ == o.cols_ && rows_ == o.rows_ && std::memcmp(&min_u_, &o.min_u_, sizeof min_u_) == 0 &&

@@ -14,7 +14,7 @@
 //            descriptors, depth, u_right, map points, outlier flags, optional pose), BoW vector, feature
 //            vector, covisibility weights, ordered neighbours, parent, children, loop edges (version 2;
 //            version 1 files, without them, are refused). The feature grid is
-//            rebuilt from uv and the bounds as Frame::finalize() builds it.
+//            rebuilt from uv, the levels and the bounds as Frame::finalize() builds it.
 //     MPTS   per map point (ascending id): every MapPoint field
 //     CULL   per culled keyframe (ascending id): id, parent, T_parent_kf (4x4)
 //     REPL   per replaced point (ascending id): old id, replacement id
