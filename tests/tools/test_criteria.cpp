@@ -123,10 +123,27 @@ TEST(Criteria, GoalTrueDistanceJudgesTheFarthestReachedGoal) {
   v = judge(c, m);
   EXPECT_EQ((*find(v, "goal_true_distance_m", "a"))["note"], "not measured");
   EXPECT_TRUE((*find(v, "goal_true_distance_m", "b"))["value"].is_null());
+  // The vacuous pass needs an empty list: a malformed one with no goals given is still not measured.
+  m["robots"][1]["goals_total"] = 0;
+  EXPECT_TRUE((*find(judge(c, m), "goal_true_distance_m", "b"))["value"].is_null());
   m["robots"][1]["planned"] = false;
-  EXPECT_EQ(find(judge(c, m), "goal_true_distance_m", "b"), nullptr);
-  // With no robot at all the criterion fails rather than pass on nothing.
+  v = judge(c, m);
+  EXPECT_EQ(find(v, "goal_true_distance_m", "b"), nullptr);
+  EXPECT_EQ(find(v, "goals", ""), nullptr);  // a is planned
+  // With no robot at all, or none planned (a scripted mission), the goal criteria fail rather than pass
+  // on nothing.
   EXPECT_FALSE(judge(c, nlohmann::json{{"robots", nlohmann::json::array()}})["passed"].get<bool>());
+  m["robots"][0]["planned"] = false;
+  for (const bool distance : {true, false}) {
+    CriteriaConfig goals;
+    goals.goals_reached = !distance;
+    goals.max_goal_true_distance_m = distance ? 0.3 : -1.0;
+    v = judge(goals, m);
+    EXPECT_FALSE(v["passed"].get<bool>());
+    ASSERT_EQ(v["criteria"].size(), 1u) << v.dump();
+    EXPECT_EQ(v["criteria"][0]["name"], "goals");
+    EXPECT_EQ(v["criteria"][0]["note"], "no robot's path is planned: no goals to judge");
+  }
 }
 
 // A frame without a pose counts whatever the reason: a robot that never started a map (no frame lost,

@@ -105,6 +105,11 @@ TEST(MissionPlanner, WaypointMissionPlansAdvancesAndFinishes) {
   commands = mission.update(3.0, map, {at(4.0, 2.9, M_PI / 2, true), at(1.1, 3.0, M_PI, true)});
   EXPECT_EQ(mission.reports()[0].goals_reached, 2);
   EXPECT_EQ(mission.reports()[1].goals_reached, 1);
+  // Each reach by proximity records the spot it was accepted at: here the waypoints themselves.
+  ASSERT_EQ(mission.reports()[0].reached_at_world.size(), 2u);
+  EXPECT_TRUE(mission.reports()[0].reached_at_world[0].isApprox(Eigen::Vector2d(4.0, 1.0)));
+  EXPECT_TRUE(mission.reports()[0].reached_at_world[1].isApprox(Eigen::Vector2d(4.0, 3.0)));
+  EXPECT_EQ(mission.reports()[1].reached_at_world.size(), 1u);
   EXPECT_EQ(mission.reports()[0].status, "all goals reached");
   EXPECT_FALSE(mission.wants_plan(0));
   EXPECT_FALSE(mission.wants_plan(1));
@@ -150,6 +155,10 @@ TEST(MissionPlanner, AGoalMovedOffAnObstacleIsReachedAtTheSpotItWasMovedTo) {
   ASSERT_FALSE(mission.reports()[0].events.empty());
   EXPECT_NE(mission.reports()[0].events.back().find("reached at the free spot"), std::string::npos)
       << mission.reports()[0].events.back();
+  // Accepted at the free spot, not at the waypoint inside the carton (the truth is measured from there).
+  ASSERT_EQ(mission.reports()[0].reached_at_world.size(), 1u);
+  EXPECT_LT((mission.reports()[0].reached_at_world[0] - end).norm(), 0.15);
+  EXPECT_GT((mission.reports()[0].reached_at_world[0] - Eigen::Vector2d(4.0, 1.0)).norm(), mission.mission().goal_reached_m);
   c = command_for(commands, 0);
   ASSERT_NE(c, nullptr);
   EXPECT_LT((c->path_world.back() - Eigen::Vector2d(4.0, 3.0)).norm(), 0.15) << "on to the next waypoint";
@@ -331,6 +340,7 @@ TEST(MissionPlanner, AFrontierBeyondADoorwayGetsAViewpointInFrontOfIt) {
   mission.update(4.5, both, {at(2.0, 2.0)});
   EXPECT_NE(mission.reports()[0].events[1].find("its frontier has been explored"), std::string::npos)
       << mission.reports()[0].events[1];
+  EXPECT_TRUE(mission.reports()[0].reached_at_world.empty()) << "reached by being seen, not at a spot";
 
   // A robot already standing at the viewpoint, facing away from the doorway, turns towards it (a short
   // step east), takes no goal while it turns, and does not turn to the same frontier again.

@@ -95,16 +95,26 @@ nlohmann::json judge(const CriteriaConfig& c, const nlohmann::json& metrics) {
     if (c.max_goal_true_distance_m >= 0.0 && is_planned) {
       // The mission counts a goal reached from the robot's estimate; the true body's distance judges that.
       std::optional<double> farthest = largest_number(robot, "goals_reached_true_distance_m");
+      const auto list = robot.find("goals_reached_true_distance_m");
+      const bool empty_list = list != robot.end() && list->is_array() && list->empty();
       std::string note;
-      if (!farthest && total && *total == 0.0) {
+      if (empty_list && total && *total == 0.0) {
         farthest = 0.0;  // vacuous, as above
         note = "no goals given";
-      } else if (!farthest && robot.contains("goals_reached_true_distance_m") &&
-                 robot["goals_reached_true_distance_m"].is_array() && robot["goals_reached_true_distance_m"].empty()) {
+      } else if (empty_list) {
         note = "no goal reached";
       }
       verdict.add("goal_true_distance_m", name, farthest, c.max_goal_true_distance_m, true, note);
     }
+  }
+  // Goal criteria on a run with robots but none planned (a scripted mission) judge nothing: said, and failed.
+  const bool goal_criteria = c.goals_reached || c.max_goal_true_distance_m >= 0.0;
+  const bool any_planned = std::any_of(robots.begin(), robots.end(), [](const nlohmann::json& robot) {
+    const auto planned = robot.find("planned");
+    return planned != robot.end() && planned->is_boolean() && *planned == true;
+  });
+  if (goal_criteria && !robots.empty() && !any_planned) {
+    verdict.add("goals", "", std::nullopt, 1.0, false, "no robot's path is planned: no goals to judge");
   }
   const std::optional<double> map_points = number_at(metrics, {"merged_map_accuracy", "map_points"});
   const std::string map_note = map_points && *map_points == 0.0 ? "the merged map is empty" : "";

@@ -197,6 +197,7 @@ void MissionPlanner::update_goals(double t_s, const std::vector<RobotObservation
     };
     if (s.goal_world && (near(s.goal_world) || near(s.path_goal_world))) {
       ++report.goals_reached;
+      report.reached_at_world.push_back(near(s.goal_world) ? *s.goal_world : *s.path_goal_world);
       char what[128];
       if (near(s.goal_world)) {
         std::snprintf(what, sizeof(what), "goal (%.2f, %.2f) reached", s.goal_world->x(), s.goal_world->y());

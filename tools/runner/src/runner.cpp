@@ -189,7 +189,8 @@ struct RobotRun {
   double contact_s = 0.0;    // simulated time spent in contact (resolution: the world's steps, the sensor ticks)
   bool in_contact = false;
   nlohmann::json collision_events = nlohmann::json::array();
-  // The mission judges goals from estimates: how far the true body was from each goal it counted reached.
+  // The mission judges goals from estimates: how far the true body was from the spot each goal reached by
+  // proximity was accepted at (MissionRobotReport::reached_at_world).
   std::vector<double> reached_true_distance_m;
 };
 
@@ -384,17 +385,16 @@ RunOutcome Runner::run(const ProgressSink& progress) {
         views.push_back({T_world_cam.translation().cast<float>(), core::transformed_points(kf->dense_cam.points, T_world_cam)});
       }
     }
-    std::vector<std::optional<Eigen::Vector2d>> goal_before(robots.size());
-    std::vector<int> reached_before(robots.size());
-    for (std::size_t r = 0; r < robots.size(); ++r) {
-      goal_before[r] = mission.goal_of(r);
-      reached_before[r] = mission.reports()[r].goals_reached;
-    }
+    std::vector<std::size_t> reached_before(robots.size());
+    for (std::size_t r = 0; r < robots.size(); ++r) reached_before[r] = mission.reports()[r].reached_at_world.size();
     for (const PathCommand& c : mission.update(t_s, merged.merge.cloud_world, seen, views)) world.set_path(c.robot, c.path_world);
     for (std::size_t r = 0; r < robots.size(); ++r) {
-      if (!goal_before[r] || mission.reports()[r].goals_reached <= reached_before[r]) continue;
+      // The truth against each spot the mission accepted from the estimate.
+      const std::vector<Eigen::Vector2d>& reached_at = mission.reports()[r].reached_at_world;
       const Eigen::Vector2d true_xy = world.truth(r).T_world_body.translation().head<2>();
-      robots[r].reached_true_distance_m.push_back((true_xy - *goal_before[r]).norm());
+      for (std::size_t k = reached_before[r]; k < reached_at.size(); ++k) {
+        robots[r].reached_true_distance_m.push_back((true_xy - reached_at[k]).norm());
+      }
     }
     coverage_series.push_back({t_s, coverage(truth_space, mission.grid())});
     mission_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();

@@ -62,6 +62,9 @@ struct MissionRobotReport {
   std::string status = "waiting";  // one line: what the robot is doing or why it stopped
   int goals_total = 0;      // waypoints: the scenario's; explore: frontiers assigned
   int goals_reached = 0;
+  // The spot each goal reached by proximity was accepted at: the goal, or the free spot the planner moved
+  // it to (an explored frontier counts as reached without one).
+  std::vector<Eigen::Vector2d> reached_at_world;
   int goals_given_up = 0;
   int plans = 0;            // plans made (solved or approximate)
   int plan_failures = 0;

@@ -135,8 +135,9 @@ struct CriteriaConfig {
   double max_lost_share = -1.0;           // every robot: share of its frames without a pose
   bool no_collisions = false;             // no robot touches the scene or another robot
   bool goals_reached = false;             // planned missions: every goal of every ground robot reached
-  // Planned missions: for every goal the mission counted reached (from the robot's estimate), how far the
-  // true body was from it at that moment; the largest, per robot, at most this.
+  // Planned missions: for every goal the mission counted reached from the robot's estimate (near the goal,
+  // or near the free spot the planner moved it to), how far the true body was from that spot at that
+  // moment; the largest, per robot, at most this. An explored frontier counts as reached without a spot.
   double max_goal_true_distance_m = -1.0;
 
   template <class V>
