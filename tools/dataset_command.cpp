@@ -239,17 +239,18 @@ void add_dataset_command(CLI::App& app, const GlobalOptions& global) {
   info->callback([options, &global] { run_info(*options, global); });
 
   CLI::App* convert = dataset->add_subcommand(
-      "convert", "Rewrite a sequence: tum_rgbd -> tum_rgbd|euroc (euroc drops depth), euroc/tumvi -> euroc");
+      "convert",
+      "Rewrite a sequence: tum_rgbd -> tum_rgbd|euroc|tumvi (euroc and tumvi drop depth), euroc/tumvi -> euroc|tumvi");
   add_source_options(*convert, *options);
   convert->add_option("--to", options->to, "Output layout")
       ->required()
       ->transform(CLI::Validator(
           [](std::string& to) -> std::string {
             if (to == "tum") to = "tum_rgbd";  // the alias --format takes
-            if (to == "tum_rgbd" || to == "euroc") return {};
-            return "'" + to + "' is no layout to write: tum_rgbd (or tum) or euroc";
+            if (to == "tum_rgbd" || to == "euroc" || to == "tumvi") return {};
+            return "'" + to + "' is no layout to write: tum_rgbd (or tum), euroc or tumvi";
           },
-          "{tum_rgbd,tum,euroc}"));
+          "{tum_rgbd,tum,euroc,tumvi}"));
   convert->add_option("--out", options->out, "Output folder (new or empty)")->required();
   convert->add_option("--start", options->start, "First frame index")->check(whole_number_at_least(0));
   convert->add_option("--stop", options->stop, "One past the last frame index (-1: to the end)");

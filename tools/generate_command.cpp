@@ -130,14 +130,14 @@ void check_robots(const GenerateOptions& options, const sim::ScenarioConfig& sce
     if (format == core::DatasetFormat::kTumRgbd && !robot.camera.depth) {
       throw InputError(robot_key(options, i, "camera.depth"),
                        "robot '" + robot.name + "' renders no depth, which the TUM RGB-D layout needs: set it "
-                       "to true, or use --format euroc");
+                       "to true, or use --format euroc (or tumvi)");
     }
   }
 }
 
 // The rig as the written sequence holds it. TUM RGB-D: the colour camera with depth (a stereo robot's
-// right camera is not written), no IMU (the layout keeps only an accelerometer). EuRoC: no depth, so an
-// RGB-D robot becomes monocular (inertial with its IMU).
+// right camera is not written), no IMU (the layout keeps only an accelerometer). EuRoC and TUM-VI: no
+// depth, so an RGB-D robot becomes monocular (inertial with its IMU).
 core::SensorRig sequence_rig(core::SensorRig rig, core::DatasetFormat format) {
   if (format == core::DatasetFormat::kTumRgbd) {
     rig.mode = core::SensorMode::kRgbd;
@@ -183,9 +183,9 @@ std::vector<RobotOutput> open_outputs(const fs::path& out, const sim::World& wor
   return outputs;
 }
 
-// EuRoC holds gray images and no depth; converting here says so once in the log instead of the writer
-// warning about it.
-void prepare_for_euroc(core::SensorFrame& frame) {
+// EuRoC and TUM-VI hold gray images and no depth; converting here says so once in the log instead of the
+// writer warning about it.
+void prepare_for_mav0(core::SensorFrame& frame) {
   if (frame.image.channels() == 3) cv::cvtColor(frame.image, frame.image, cv::COLOR_BGR2GRAY);
   if (frame.right.channels() == 3) cv::cvtColor(frame.right, frame.right, cv::COLOR_BGR2GRAY);
   frame.depth_m.release();
@@ -194,7 +194,8 @@ void prepare_for_euroc(core::SensorFrame& frame) {
 // Steps the world to its end and hands each written robot's frames to its sink.
 void run_world(sim::World& world, const fs::path& out, std::vector<RobotOutput>& outputs, core::DatasetFormat format,
                const core::Logger& logger) {
-  if (format == core::DatasetFormat::kEuroc) logger->info("EuRoC layout: images written gray, depth maps left out");
+  const bool mav0 = format != core::DatasetFormat::kTumRgbd;
+  if (mav0) logger->info("{} layout: images written gray, depth maps left out", core::to_string(format));
   core::Progress progress =
       make_progress(static_cast<std::size_t>(std::max<core::TimeNs>(world.end_ns() / 1000000, 1)), "simulated ms", logger);
   while (!world.finished()) {
@@ -203,7 +204,7 @@ void run_world(sim::World& world, const fs::path& out, std::vector<RobotOutput>&
         return o.index == static_cast<std::size_t>(frame.robot_id);
       });
       if (output == outputs.end()) continue;  // a robot of the world that is not written
-      if (format == core::DatasetFormat::kEuroc) prepare_for_euroc(frame);
+      if (mav0) prepare_for_mav0(frame);
       output->sink->write(frame);
     }
     progress.update(static_cast<std::size_t>(world.time_ns() / 1000000));
@@ -220,8 +221,9 @@ void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
   const core::Logger logger = make_cli_logger("generate", global);
   const fs::path out = options.out;
   check_output_folder(out);
-  const core::DatasetFormat format =
-      options.format == "tum" ? core::DatasetFormat::kTumRgbd : core::DatasetFormat::kEuroc;
+  const core::DatasetFormat format = options.format == "tum"     ? core::DatasetFormat::kTumRgbd
+                                     : options.format == "tumvi" ? core::DatasetFormat::kTumVi
+                                                                 : core::DatasetFormat::kEuroc;
   const sim::ScenarioConfig scenario = load(options);
   const std::vector<std::size_t> selected = select_robots(options, scenario, logger);
   check_robots(options, scenario, selected, format);
@@ -245,18 +247,20 @@ void run_generate(const GenerateOptions& options, const GlobalOptions& global) {
 void add_generate_command(CLI::App& app, const GlobalOptions& global) {
   auto options = std::make_shared<GenerateOptions>();
   CLI::App* generate = app.add_subcommand(
-      "generate", "Run a scenario and write each robot's sensor stream as a TUM RGB-D or EuRoC sequence "
-                  "with ORB-SLAM3 settings");
+      "generate", "Run a scenario and write each robot's sensor stream as a TUM RGB-D, EuRoC or TUM-VI "
+                  "sequence with ORB-SLAM3 settings");
   generate->add_option("scenario", options->scenario, "Scenario YAML file")->required();
-  generate->add_option("--format", options->format, "Layout: tum (RGB-D, needs depth) or euroc (gray, IMU, stereo)")
+  generate->add_option("--format", options->format,
+                       "Layout: tum (RGB-D, needs depth), euroc (gray, IMU, stereo; state ground truth) or tumvi "
+                       "(as euroc, with mocap0/ pose ground truth)")
       ->required()
       ->transform(CLI::Validator(
           [](std::string& format) -> std::string {
             if (format == "tum_rgbd") format = "tum";  // the name --format takes elsewhere
-            if (format == "tum" || format == "euroc") return {};
-            return "'" + format + "' is no layout to write: tum (or tum_rgbd) or euroc";
+            if (format == "tum" || format == "euroc" || format == "tumvi") return {};
+            return "'" + format + "' is no layout to write: tum (or tum_rgbd), euroc or tumvi";
           },
-          "{tum,tum_rgbd,euroc}"));
+          "{tum,tum_rgbd,euroc,tumvi}"));
   generate->add_option("--out", options->out, "Output folder (new or empty)")->required();
   generate->add_option("--duration", options->duration_s, "Seconds to simulate (default: the scenario's)");
   generate->add_option("--robots", options->robots, "Robots to write, comma-separated (default: all with a camera)")

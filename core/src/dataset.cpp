@@ -60,7 +60,7 @@ std::unique_ptr<FrameSource> open_dataset(const std::filesystem::path& root, std
 std::unique_ptr<FrameSink> make_dataset_writer(const std::filesystem::path& root, DatasetFormat format,
                                                const SensorRig& rig, Logger logger) {
   if (format == DatasetFormat::kTumRgbd) return std::make_unique<TumRgbdWriter>(root, rig, std::move(logger));
-  return std::make_unique<EurocWriter>(root, rig, std::move(logger));
+  return std::make_unique<EurocWriter>(root, rig, std::move(logger), format);
 }
 
 std::size_t copy_frames(FrameSource& source, FrameSink& sink, Logger logger) {

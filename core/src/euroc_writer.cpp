@@ -1,5 +1,6 @@
-// EuRoC writer: a mav0 folder with cameras, IMU, calibration and body ground truth.
+// EuRoC and TUM-VI writer: a mav0 folder with cameras, IMU, calibration and body ground truth.
 
+#include <algorithm>
 #include <fstream>
 #include <optional>
 #include <string>
@@ -85,6 +86,32 @@ std::string frame_name(const SensorFrame& frame) {
   return "frame " + std::to_string(frame.sequence) + " (t " + std::to_string(frame.t_ns) + " ns)";
 }
 
+// The frames' ground truth and the truth at their IMU samples merged in time order, one row per instant
+// (a frame's own row where both have one).
+void merge_truth(Trajectory& body_poses, std::vector<ImuStateGt>& states, bool with_states,
+                 const std::vector<ImuTruth>& imu_truth) {
+  Trajectory poses;
+  std::vector<ImuStateGt> merged_states;
+  poses.reserve(body_poses.size() + imu_truth.size());
+  std::size_t f = 0;
+  std::size_t k = 0;
+  while (f < body_poses.size() || k < imu_truth.size()) {
+    const bool take_frame = k == imu_truth.size() || (f < body_poses.size() && body_poses[f].t_ns <= imu_truth[k].t_ns);
+    if (take_frame) {
+      if (k < imu_truth.size() && imu_truth[k].t_ns == body_poses[f].t_ns) ++k;
+      poses.push_back(body_poses[f]);
+      if (with_states) merged_states.push_back(states[f]);
+      ++f;
+    } else {
+      poses.push_back({imu_truth[k].t_ns, imu_truth[k].T_world_body});
+      if (with_states) merged_states.push_back(imu_truth[k].state);
+      ++k;
+    }
+  }
+  body_poses = std::move(poses);
+  states = std::move(merged_states);
+}
+
 }  // namespace
 
 struct EurocWriter::Files {
@@ -96,11 +123,16 @@ struct EurocWriter::Files {
   Trajectory body_poses;
   std::vector<ImuStateGt> states;  // one per body pose while every posed frame brought one
   bool all_states = true;
+  std::vector<ImuTruth> imu_truth;  // the truth at the IMU samples, while every frame with samples brought it
+  bool all_imu_truth = true;
 };
 
-EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
-    : root_(root), staging_(begin_staged_folder(root)), mav0_(staging_ / "mav0"), rig_(rig),
-      logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
+EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger, DatasetFormat layout)
+    : root_(root), layout_(layout), rig_(rig), logger_(or_null(std::move(logger))), files_(std::make_unique<Files>()) {
+  FLEETSLAM_CHECK(layout_ == DatasetFormat::kEuroc || layout_ == DatasetFormat::kTumVi,
+                  "EurocWriter writes the EuRoC or the TUM-VI layout");
+  staging_ = begin_staged_folder(root);
+  mav0_ = staging_ / "mav0";
   const Eigen::Isometry3d T_body_cam0 = rig_.T_body_cam0.value_or(Eigen::Isometry3d::Identity());
   const char* kImageHeader = "#timestamp [ns],filename\n";
   std::filesystem::create_directories(mav0_ / "cam0" / "data");
@@ -169,6 +201,14 @@ void EurocWriter::write(const SensorFrame& frame) {
       if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "IMU stamps do not increase");
       last_imu = s.t_ns;
     }
+    const bool truth_matches =
+        frame.imu_truth.empty() ||
+        (frame.imu_truth.size() == frame.imu.size() &&
+         std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
+                    [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
+    if (!truth_matches) {
+      throw InputError(frame_name(frame), "its IMU truth is not one entry per IMU sample at the sample's time");
+    }
   }
   write_images(frame);
   if (frame.has_depth() && !warned_depth_) logger_->warn("{}: depth maps dropped (EuRoC layout)", mav0_.string());
@@ -184,6 +224,10 @@ void EurocWriter::write(const SensorFrame& frame) {
                   << ',' << exact(s.accel_mps2.z()) << '\n';
       files_->last_imu_t_ns = s.t_ns;
       files_->any_imu = true;
+    }
+    if (!frame.imu.empty()) files_->all_imu_truth = files_->all_imu_truth && !frame.imu_truth.empty();
+    if (files_->all_imu_truth) {
+      files_->imu_truth.insert(files_->imu_truth.end(), frame.imu_truth.begin(), frame.imu_truth.end());
     }
   }
   if (frame.T_world_cam_gt) {
@@ -207,10 +251,15 @@ void EurocWriter::close() {
     logger_->warn("{}: the rig has an IMU but no frame brought a sample: imu0/ left out", mav0_.string());
     std::filesystem::remove_all(mav0_ / "imu0");
   }
+  const bool with_states = files_->all_states && rig_.imu && layout_ == DatasetFormat::kEuroc;
+  if (rig_.imu && files_->all_imu_truth && !files_->imu_truth.empty()) {
+    merge_truth(files_->body_poses, files_->states, with_states, files_->imu_truth);
+  }
   if (!files_->body_poses.empty()) {
-    std::filesystem::create_directories(mav0_ / "state_groundtruth_estimate0");
-    const std::filesystem::path file = mav0_ / "state_groundtruth_estimate0" / "data.csv";
-    if (files_->all_states && rig_.imu) {
+    const char* folder = layout_ == DatasetFormat::kTumVi ? "mocap0" : "state_groundtruth_estimate0";
+    std::filesystem::create_directories(mav0_ / folder);
+    const std::filesystem::path file = mav0_ / folder / "data.csv";
+    if (with_states) {
       write_states(file, files_->body_poses, files_->states);
     } else {
       write_trajectory(file, files_->body_poses, TrajectoryFormat::kEuroc);
@@ -218,7 +267,8 @@ void EurocWriter::close() {
   }
   commit_staged_folder(staging_, root_);
   mav0_ = root_ / "mav0";
-  logger_->info("{}: wrote {} {} frames", mav0_.string(), frames_, rig_.cam1 ? "stereo" : "monocular");
+  logger_->info("{}: wrote {} {} frames ({} layout)", mav0_.string(), frames_, rig_.cam1 ? "stereo" : "monocular",
+                to_string(layout_));
 }
 
 }  // namespace fleetslam::core

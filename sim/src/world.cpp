@@ -90,6 +90,7 @@ struct RobotRuntime {
   std::int64_t next_imu_tick = 0;
   std::int64_t frames_emitted = 0;
   std::vector<core::ImuSample> pending_imu;
+  std::vector<core::ImuTruth> pending_imu_truth;  // one per pending_imu sample
 
   explicit RobotRuntime(const RobotConfig& robot)
       : config(robot),
@@ -283,6 +284,8 @@ core::SensorFrame World::Impl::render_frame(RobotRuntime& robot, std::size_t ind
   }
   frame.imu = std::move(robot.pending_imu);
   robot.pending_imu.clear();
+  frame.imu_truth = std::move(robot.pending_imu_truth);
+  robot.pending_imu_truth.clear();
   frame.T_world_cam_gt = body_pose(data.get(), robot.body_id) * robot.T_body_cam;
   if (robot.config.imu.enabled) {
     frame.imu_state_gt = core::ImuStateGt{velocity_world(robot, t_ns), robot.imu.gyro_bias_radps(),
@@ -309,6 +312,11 @@ std::vector<core::SensorFrame> World::Impl::process_events(core::TimeNs t_ns) {
     RobotRuntime& robot = robots[i];
     if (robot.config.imu.enabled && tick_time(robot.next_imu_tick, robot.config.imu.noise.rate_hz, step_ns) == t_ns) {
       robot.pending_imu.push_back(imu_sample(robot, t_ns));
+      // The IMU site is the body's origin, axes aligned: the body frame is the IMU frame. The biases are
+      // those the sample was measured with.
+      robot.pending_imu_truth.push_back(core::ImuTruth{
+          t_ns, body_pose(data.get(), robot.body_id),
+          core::ImuStateGt{velocity_world(robot, t_ns), robot.imu.gyro_bias_radps(), robot.imu.accel_bias_mps2()}});
       ++robot.next_imu_tick;
     }
     if (robot.config.camera.enabled &&

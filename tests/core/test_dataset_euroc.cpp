@@ -334,6 +334,135 @@ TEST(Euroc, TheImuStateOfTheFramesIsWrittenAsEurocsStateGroundTruth) {
   }
 }
 
+// The truth at each IMU sample, with the frames' states.
+std::vector<SensorFrame> frames_with_imu_truth(std::uint64_t seed) {
+  std::vector<SensorFrame> frames = make_frames(seed);
+  const Eigen::Isometry3d T_cam_body = stereo_rig().T_body_cam0->inverse();
+  std::mt19937 rng(static_cast<std::mt19937::result_type>(seed + 1));
+  std::normal_distribution<double> value(0.0, 1.0);
+  const auto random_state = [&] {
+    return ImuStateGt{{value(rng), value(rng), value(rng)},
+                      {1e-3 * value(rng), 1e-3 * value(rng), 1e-3 * value(rng)},
+                      {1e-2 * value(rng), 1e-2 * value(rng), 1e-2 * value(rng)}};
+  };
+  for (SensorFrame& frame : frames) {
+    if (frame.T_world_cam_gt) frame.imu_state_gt = random_state();
+    for (const ImuSample& sample : frame.imu) {
+      ImuTruth truth{sample.t_ns, test::random_pose(rng), random_state()};
+      // At the frame's instant the truth is the frame's.
+      if (sample.t_ns == frame.t_ns && frame.T_world_cam_gt) truth = {sample.t_ns, *frame.T_world_cam_gt * T_cam_body, *frame.imu_state_gt};
+      frame.imu_truth.push_back(truth);
+    }
+  }
+  return frames;
+}
+
+Eigen::Isometry3d pose_of_row(const std::vector<std::string>& f) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
+  T.linear() = Eigen::Quaterniond(std::stod(f[4]), std::stod(f[5]), std::stod(f[6]), std::stod(f[7])).toRotationMatrix();
+  return T;
+}
+
+// Frames that carry the truth at their IMU samples (as the simulator's do) get a ground-truth row at every
+// sample as well as at every frame (EuRoC's runs at the IMU's rate), each exact; the frame without a pose
+// is then posed by the reader from the truth at its instant.
+TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
+  TempDir dir;
+  const std::vector<SensorFrame> frames = frames_with_imu_truth(21);
+  write_sequence(dir / "imu_rate", frames);
+  const std::vector<std::vector<std::string>> rows =
+      csv_rows(dir / "imu_rate" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  std::vector<ImuTruth> truth;
+  for (const SensorFrame& frame : frames) truth.insert(truth.end(), frame.imu_truth.begin(), frame.imu_truth.end());
+  ASSERT_EQ(truth.size(), static_cast<std::size_t>(kFrames) * 10);
+  ASSERT_EQ(rows.size(), truth.size());  // every frame's instant is a sample's
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    SCOPED_TRACE(k);
+    const std::vector<std::string>& f = rows[k];
+    ASSERT_EQ(f.size(), 17u);
+    EXPECT_EQ(std::stoll(f[0]), truth[k].t_ns);
+    EXPECT_TRUE(pose_of_row(f).isApprox(truth[k].T_world_body, 1e-12));
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(std::stod(f[8 + static_cast<std::size_t>(c)]), truth[k].state.v_world_mps(c));
+      EXPECT_EQ(std::stod(f[11 + static_cast<std::size_t>(c)]), truth[k].state.gyro_bias_radps(c));
+      EXPECT_EQ(std::stod(f[14 + static_cast<std::size_t>(c)]), truth[k].state.accel_bias_mps2(c));
+    }
+  }
+  const std::vector<SensorFrame> read = read_all(*open(dir / "imu_rate"));
+  ASSERT_EQ(read.size(), frames.size());
+  const Eigen::Isometry3d T_body_cam0 = *stereo_rig().T_body_cam0;
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(read[i].T_world_cam_gt.has_value());
+    const Eigen::Isometry3d expected =
+        frames[i].T_world_cam_gt ? *frames[i].T_world_cam_gt : frames[i].imu_truth.back().T_world_body * T_body_cam0;
+    EXPECT_LT((read[i].T_world_cam_gt->matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+  }
+
+  // Frames without their states: the pose columns alone, still at the IMU's rate.
+  std::vector<SensorFrame> stateless = frames;
+  for (SensorFrame& frame : stateless) frame.imu_state_gt.reset();
+  write_sequence(dir / "poses_only", stateless);
+  const auto pose_rows = csv_rows(dir / "poses_only" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  ASSERT_EQ(pose_rows.size(), truth.size());
+  for (const auto& f : pose_rows) EXPECT_EQ(f.size(), 8u);
+
+  // One frame with samples and no truth for them: the frames' own rows only.
+  std::vector<SensorFrame> gap = frames;
+  gap[6].imu_truth.clear();
+  write_sequence(dir / "gap", gap);
+  EXPECT_EQ(csv_rows(dir / "gap" / "mav0" / "state_groundtruth_estimate0" / "data.csv").size(),
+            static_cast<std::size_t>(kFrames) - 1);
+
+  // Truth that does not pair with the samples is refused, naming the frame, and the frame is not written.
+  for (const int fault : {0, 1}) {
+    SCOPED_TRACE(fault);
+    std::vector<SensorFrame> bad = frames;
+    if (fault == 0) bad[3].imu_truth.pop_back();
+    if (fault == 1) bad[3].imu_truth[2].t_ns += 1;
+    EurocWriter writer(dir / ("bad" + std::to_string(fault)), stereo_rig(), null_logger());
+    for (int i = 0; i < 3; ++i) writer.write(bad[static_cast<std::size_t>(i)]);
+    expect_input_error([&] { writer.write(bad[3]); }, {"frame 3", "IMU truth"});
+    EXPECT_EQ(writer.frames_written(), 3u);
+  }
+}
+
+// TUM-VI: the same mav0 layout with the body poses in mocap0/data.csv (pose columns only, at the IMU's
+// rate from the truth at the samples); read back as TUM-VI with the same ground truth.
+TEST(Euroc, TheTumViLayoutHoldsTheGroundTruthInMocap0) {
+  TempDir dir;
+  const std::vector<SensorFrame> frames = frames_with_imu_truth(22);
+  {
+    const auto writer = make_dataset_writer(dir / "vi", DatasetFormat::kTumVi, stereo_rig(), null_logger());
+    for (const SensorFrame& frame : frames) writer->write(frame);
+    writer->close();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "vi" / "mav0" / "state_groundtruth_estimate0"));
+  const auto rows = csv_rows(dir / "vi" / "mav0" / "mocap0" / "data.csv");
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames) * 10);
+  for (const auto& f : rows) EXPECT_EQ(f.size(), 8u);
+  EXPECT_EQ(detect_dataset_format(dir / "vi"), DatasetFormat::kTumVi);
+  write_sequence(dir / "euroc", frames);
+  const auto vi = open(dir / "vi");
+  EXPECT_EQ(vi->info().format, DatasetFormat::kTumVi);
+  const std::vector<SensorFrame> from_vi = read_all(*vi);
+  const std::vector<SensorFrame> from_euroc = read_all(*open(dir / "euroc"));
+  ASSERT_EQ(from_vi.size(), from_euroc.size());
+  for (std::size_t i = 0; i < from_vi.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(from_vi[i].T_world_cam_gt && from_euroc[i].T_world_cam_gt);
+    EXPECT_TRUE(from_vi[i].T_world_cam_gt->isApprox(*from_euroc[i].T_world_cam_gt, 1e-15));
+    EXPECT_FALSE(from_vi[i].imu_state_gt.has_value());  // TUM-VI has no state columns
+    EXPECT_EQ(cv::norm(from_vi[i].image, from_euroc[i].image, cv::NORM_INF), 0.0);
+    ASSERT_EQ(from_vi[i].imu.size(), from_euroc[i].imu.size());
+  }
+  // No other layout is written by this writer; nothing is created for it.
+  EXPECT_THROW(EurocWriter(dir / "tum", stereo_rig(), null_logger(), DatasetFormat::kTumRgbd), InvariantError);
+  EXPECT_FALSE(std::filesystem::exists(dir / "tum"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "tum.partial"));
+}
+
 TEST(Euroc, CamOneRowsPastTheEndAndUnpairedRowsAreSkipped) {
   TempDir dir;
   write_sequence(dir.path(), make_frames(6));

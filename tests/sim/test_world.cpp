@@ -396,6 +396,73 @@ TEST(World, FramesCarryTheImuStateAtTheirInstant) {
   }
 }
 
+// Every IMU sample comes with the truth at its instant: the body pose, velocity and biases. At a frame's
+// instant it is the frame's own ground truth; between frames the poses agree with what the noise-free gyro
+// and the velocities say (a kinematic rig and a diff-drive robot).
+TEST(World, FramesCarryTheTruthAtEveryImuSample) {
+  const fs::path dir = write_scene("imu_truth", kWallScene);
+  const RobotConfig rig = moving_rig();
+  RobotConfig rover = small_rover(2, {{0.5, 0.5}, {0.5, -0.5}});
+  rover.imu.noise_enabled = false;
+  World world(scenario_in(dir, {rig, rover}, 1.5), nullptr);
+  std::vector<std::vector<core::ImuSample>> samples(2);
+  std::vector<std::vector<core::ImuTruth>> truths(2);
+  std::size_t frames_seen = 0;
+  std::size_t shared_instants = 0;
+  for (auto frames = world.step(); !frames.empty(); frames = world.step()) {
+    for (const core::SensorFrame& frame : frames) {
+      const auto r = static_cast<std::size_t>(frame.robot_id);
+      SCOPED_TRACE(testing::Message() << "robot " << r << ", frame " << frame.sequence);
+      ASSERT_EQ(frame.imu_truth.size(), frame.imu.size());
+      ASSERT_FALSE(frame.imu.empty());
+      for (std::size_t k = 0; k < frame.imu.size(); ++k) EXPECT_EQ(frame.imu_truth[k].t_ns, frame.imu[k].t_ns);
+      // Where a camera tick is an IMU tick (every 100 ms: 30 Hz and 200 Hz), the truth is the frame's.
+      const core::ImuTruth& last = frame.imu_truth.back();
+      ASSERT_TRUE(frame.T_world_cam_gt && frame.imu_state_gt);
+      if (last.t_ns == frame.t_ns) {
+        EXPECT_TRUE((last.T_world_body * world.T_body_cam(r)).isApprox(*frame.T_world_cam_gt, 1e-15));
+        EXPECT_EQ(last.state.v_world_mps, frame.imu_state_gt->v_world_mps);
+        EXPECT_EQ(last.state.gyro_bias_radps, frame.imu_state_gt->gyro_bias_radps);
+        EXPECT_EQ(last.state.accel_bias_mps2, frame.imu_state_gt->accel_bias_mps2);
+        ++shared_instants;
+      }
+      samples[r].insert(samples[r].end(), frame.imu.begin(), frame.imu.end());
+      truths[r].insert(truths[r].end(), frame.imu_truth.begin(), frame.imu_truth.end());
+      ++frames_seen;
+    }
+  }
+  EXPECT_GT(frames_seen, 40u);
+  EXPECT_GE(shared_instants, 20u);
+  for (std::size_t r = 0; r < 2; ++r) {
+    SCOPED_TRACE(r);
+    const std::vector<core::ImuTruth>& truth = truths[r];
+    ASSERT_GT(truth.size(), 200u);
+    double worst_rotation_rad = 0.0;
+    double worst_velocity_mps = 0.0;
+    double largest_turn_rad = 0.0;
+    double fastest_mps = 0.0;
+    for (std::size_t k = 1; k + 1 < truth.size(); ++k) {
+      const double dt_s = core::ns_to_seconds(truth[k + 1].t_ns - truth[k].t_ns);
+      // Rotation over one sample interval against the gyro (midpoint rate), both in the body frame.
+      const Eigen::Vector3d omega = 0.5 * (samples[r][k].gyro_radps + samples[r][k + 1].gyro_radps);
+      const Eigen::Matrix3d dR = truth[k].T_world_body.linear().transpose() * truth[k + 1].T_world_body.linear();
+      worst_rotation_rad =
+          std::max(worst_rotation_rad, core::rotation_angle_rad(core::so3_exp(omega * dt_s).transpose() * dR));
+      largest_turn_rad = std::max(largest_turn_rad, core::rotation_angle_rad(dR));
+      // Velocity against the central difference of the positions.
+      const Eigen::Vector3d v_numeric =
+          (truth[k + 1].T_world_body.translation() - truth[k - 1].T_world_body.translation()) /
+          core::ns_to_seconds(truth[k + 1].t_ns - truth[k - 1].t_ns);
+      worst_velocity_mps = std::max(worst_velocity_mps, (v_numeric - truth[k].state.v_world_mps).norm());
+      fastest_mps = std::max(fastest_mps, v_numeric.norm());
+    }
+    EXPECT_GT(largest_turn_rad, 1e-3);  // it turned between samples
+    EXPECT_GT(fastest_mps, 0.1);        // and moved
+    EXPECT_LT(worst_rotation_rad, 0.01 * largest_turn_rad + 1e-7);
+    EXPECT_LT(worst_velocity_mps, 0.005 * fastest_mps + 1e-4);
+  }
+}
+
 TEST(World, CameraTicksDoNotDriftAndImuAttachesToTheRightFrames) {
   const fs::path dir = write_scene("ticks", kWallScene);
   RobotConfig robot = still_rig("cam", PoseConfig{0, 0, 1.25, 0, 0, 0});

@@ -189,6 +189,17 @@ TEST_F(DatasetCli, ConvertEurocToEurocAndTumToEuroc) {
   EXPECT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("equidistant [0.0034823894022493434"), std::string::npos) << text.out;
 
+  // The same excerpt in TUM-VI's layout: its ground truth in mocap0/, read back as TUM-VI.
+  result = run("dataset convert " + quoted(kEuroc) + " --to tumvi --out " + quoted(dir_ / "vi") + " --start 20 --stop 40 " +
+               kEurocGt);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "vi" / "mav0" / "mocap0" / "data.csv"));
+  j = info_json(quoted(dir_ / "vi"));
+  EXPECT_EQ(j["format"], "tumvi");
+  EXPECT_EQ(j["frames"], 20);
+  EXPECT_EQ(j["rig"]["mode"], "stereo_inertial");
+  EXPECT_EQ(j["frames_with_groundtruth"], 19);
+
   result = run("dataset convert " + quoted(kTum) + " --to euroc --out " + quoted(dir_ / "mono") + " --stride 20");
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.err.find("depth maps dropped"), std::string::npos) << result.err;

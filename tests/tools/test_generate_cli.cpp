@@ -135,6 +135,42 @@ void expect_same_stream(const std::vector<core::SensorFrame>& read, const std::v
   }
 }
 
+// The mav0 ground-truth file of a simulated robot: a row at every IMU sample and every frame, in time
+// order, one per instant, each the simulator's body pose there; `columns` per row (17: with the state).
+void expect_truth_at_every_instant(const fs::path& file, const std::vector<core::SensorFrame>& simulated,
+                                   const Eigen::Isometry3d& T_body_cam0, std::size_t columns) {
+  std::vector<std::pair<core::TimeNs, Eigen::Isometry3d>> expected;
+  for (const core::SensorFrame& frame : simulated) {
+    ASSERT_EQ(frame.imu_truth.size(), frame.imu.size());
+    for (const core::ImuTruth& truth : frame.imu_truth) expected.emplace_back(truth.t_ns, truth.T_world_body);
+    expected.emplace_back(frame.t_ns, *frame.T_world_cam_gt * T_body_cam0.inverse());
+  }
+  std::stable_sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  expected.erase(std::unique(expected.begin(), expected.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+                 expected.end());
+  std::ifstream in(file);
+  ASSERT_TRUE(in.good()) << file;
+  std::string line;
+  std::getline(in, line);  // header
+  std::size_t row = 0;
+  while (std::getline(in, line)) {
+    std::vector<double> f;
+    std::stringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) f.push_back(std::stod(field));
+    ASSERT_LT(row, expected.size());
+    SCOPED_TRACE("row " + std::to_string(row));
+    ASSERT_EQ(f.size(), columns);
+    EXPECT_EQ(std::stoll(line.substr(0, line.find(','))), expected[row].first);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(f[1], f[2], f[3]);
+    T.linear() = Eigen::Quaterniond(f[4], f[5], f[6], f[7]).normalized().toRotationMatrix();
+    EXPECT_LT((T.matrix() - expected[row].second.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+    ++row;
+  }
+  EXPECT_EQ(row, expected.size());
+  EXPECT_GE(row, imu_samples(simulated));  // at least the IMU's rate (frames off its ticks add rows)
+}
+
 // Largest depth difference over the pixels the simulator measured (0 = no measurement), which must be
 // most of the image in a closed room.
 double worst_depth_error(const cv::Mat& read, const cv::Mat& simulated) {
@@ -271,6 +307,28 @@ TEST_F(GenerateCli, EurocSequencesMatchTheSimulator) {
       EXPECT_EQ(settings.rig.T_cam0_cam1.translation(), simulated.rigs[i].T_cam0_cam1.translation());  // baseline
       EXPECT_EQ(settings.rig.bf, simulated.rigs[i].bf);
     }
+    expect_truth_at_every_instant(root / "mav0" / "state_groundtruth_estimate0" / "data.csv", simulated.frames[i],
+                                  *simulated.rigs[i].T_body_cam0, 17);
+  }
+}
+
+// TUM-VI: EuRoC's layout with the body poses in mocap0/ (pose columns only); read back as TUM-VI.
+TEST_F(GenerateCli, TumViSequencesMatchTheSimulator) {
+  const fs::path out = generate("tumvi", "tumvi");
+  const Simulated simulated = simulate(dir_ / "scenario.yaml");
+  for (std::size_t i = 0; i < simulated.names.size(); ++i) {
+    SCOPED_TRACE(simulated.names[i]);
+    const fs::path root = out / simulated.names[i];
+    EXPECT_EQ(core::detect_dataset_format(root), core::DatasetFormat::kTumVi);
+    EXPECT_FALSE(fs::exists(root / "mav0" / "state_groundtruth_estimate0"));
+    const std::vector<core::SensorFrame> read = read_all(root);
+    expect_same_stream(read, simulated.frames[i], /*gyro_kept=*/true);
+    ASSERT_EQ(read.size(), simulated.frames[i].size());
+    for (std::size_t k = 0; k < read.size(); ++k) {
+      EXPECT_EQ(cv::norm(read[k].image, gray(simulated.frames[i][k].image), cv::NORM_INF), 0.0);
+    }
+    expect_truth_at_every_instant(root / "mav0" / "mocap0" / "data.csv", simulated.frames[i],
+                                  *simulated.rigs[i].T_body_cam0, 8);
   }
 }
 

@@ -154,7 +154,7 @@ std::unique_ptr<FrameSource> open_dataset(const std::filesystem::path& root,
                                           std::optional<DatasetFormat> format,
                                           const DatasetConfig& config, Logger logger);
 
-// A writer in the given layout (kTumVi writes the EuRoC layout). The folder is created; an existing
+// A writer in the given layout (EuRoC and TUM-VI: EurocWriter). The folder is created; an existing
 // non-empty folder is refused. `rig` is written as the calibration of the new sequence.
 std::unique_ptr<FrameSink> make_dataset_writer(const std::filesystem::path& root, DatasetFormat format,
                                                const SensorRig& rig, Logger logger);

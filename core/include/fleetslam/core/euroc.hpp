@@ -55,11 +55,15 @@ std::filesystem::path find_mav0(const std::filesystem::path& root);
 std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, DatasetFormat format,
                                         const DatasetConfig& config, Logger logger);
 
-// Writes frames as a EuRoC mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
-// data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and
-// state_groundtruth_estimate0/data.csv (body poses, body = IMU frame) when frames carry poses: with
+// Writes frames as a EuRoC (or TUM-VI) mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
+// data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and the body
+// poses (body = IMU frame) when frames carry poses: EuRoC's state_groundtruth_estimate0/data.csv, with
 // EuRoC's velocity and bias columns when the rig has an IMU and every posed frame brought its state
-// (SensorFrame::imu_state_gt, as the simulator's frames do), the 8 pose columns otherwise.
+// (SensorFrame::imu_state_gt, as the simulator's frames do), the 8 pose columns otherwise; TUM-VI's
+// mocap0/data.csv, the 8 pose columns. When the rig has an IMU and every frame with IMU samples brought
+// their truth (SensorFrame::imu_truth, as the simulator's frames do), the ground truth has a row at every
+// IMU sample as well as at every posed frame (EuRoC's runs at the IMU's rate): the rows merged in time, a
+// frame's own where both have an instant.
 // Colour images are converted to gray; depth maps are dropped (with one warning). A rig with an IMU
 // whose frames brought no sample gets no imu0/ (with a warning): the reader refuses an empty IMU list.
 // A frame is checked whole before any of it is written. The sequence is written to root + ".partial"
@@ -67,7 +71,9 @@ std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, Datas
 // .partial folder and says so.
 class EurocWriter final : public FrameSink {
  public:
-  EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger);
+  // layout: kEuroc or kTumVi (InvariantError otherwise, before anything is created).
+  EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger,
+              DatasetFormat layout = DatasetFormat::kEuroc);
   ~EurocWriter() override;
 
   void write(const SensorFrame& frame) override;
@@ -78,6 +84,7 @@ class EurocWriter final : public FrameSink {
   struct Files;
   void write_images(const SensorFrame& frame);
   std::filesystem::path root_;
+  DatasetFormat layout_;
   std::filesystem::path staging_;  // where the sequence is written until close()
   std::filesystem::path mav0_;     // staging_ / "mav0"
   SensorRig rig_;

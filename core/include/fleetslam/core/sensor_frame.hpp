@@ -29,6 +29,15 @@ struct ImuStateGt {
   Eigen::Vector3d accel_bias_mps2 = Eigen::Vector3d::Zero();
 };
 
+// The truth at one IMU sample, from a source that knows it (the simulator): the pose of the body (IMU)
+// frame in the world and the IMU's state, at the sample's t_ns. EuRoC's ground truth runs at the IMU's
+// rate; these let a writer do the same.
+struct ImuTruth {
+  TimeNs t_ns = 0;
+  Eigen::Isometry3d T_world_body = Eigen::Isometry3d::Identity();
+  ImuStateGt state;
+};
+
 // One camera tick of one robot. Images are owned by the frame (cv::Mat is reference-counted; sources
 // hand out freshly decoded or rendered buffers and never write them afterwards).
 struct SensorFrame {
@@ -44,6 +53,8 @@ struct SensorFrame {
 
   std::optional<Eigen::Isometry3d> T_world_cam_gt;  // ground-truth pose of the (left) camera
   std::optional<ImuStateGt> imu_state_gt;           // with T_world_cam_gt, from a source that knows it
+  // Empty, or one entry per sample of `imu`, at the same t_ns (a source that knows the truth between frames).
+  std::vector<ImuTruth> imu_truth;
 
   std::string image_path;  // where the image came from, for messages (empty for rendered frames)
 
