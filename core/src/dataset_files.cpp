@@ -121,4 +121,27 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image) {
   if (!written) throw InputError(file.string(), "cannot write the image");
 }
 
+bool imu_truth_pairs_with_samples(const SensorFrame& frame) {
+  return frame.imu_truth.empty() ||
+         (frame.imu_truth.size() == frame.imu.size() &&
+          std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
+                     [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
+}
+
+std::vector<MergedRow> merge_in_time(const std::vector<TimeNs>& first, const std::vector<TimeNs>& second) {
+  std::vector<MergedRow> rows;
+  rows.reserve(first.size() + second.size());
+  std::size_t f = 0;
+  std::size_t k = 0;
+  while (f < first.size() || k < second.size()) {
+    if (k == second.size() || (f < first.size() && first[f] <= second[k])) {
+      if (k < second.size() && second[k] == first[f]) ++k;
+      rows.push_back({true, f++});
+    } else {
+      rows.push_back({false, k++});
+    }
+  }
+  return rows;
+}
+
 }  // namespace fleetslam::core::dataset_detail

@@ -154,4 +154,16 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image);
 
 Logger or_null(Logger logger);
 
+// A frame's imu_truth is empty or one entry per IMU sample at the sample's t_ns (writers refuse it otherwise).
+bool imu_truth_pairs_with_samples(const SensorFrame& frame);
+
+// One row of two increasing stamp lists merged in time order: from `first` (else `second`), at `index`.
+struct MergedRow {
+  bool from_first = true;
+  std::size_t index = 0;
+};
+// The rows of both lists in time order, one per instant: an instant in both comes from `first` (a frame's
+// own ground truth before the truth at an IMU sample).
+std::vector<MergedRow> merge_in_time(const std::vector<TimeNs>& first, const std::vector<TimeNs>& second);
+
 }  // namespace fleetslam::core::dataset_detail

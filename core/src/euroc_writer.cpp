@@ -1,6 +1,5 @@
 // EuRoC and TUM-VI writer: a mav0 folder with cameras, IMU, calibration and body ground truth.
 
-#include <algorithm>
 #include <fstream>
 #include <optional>
 #include <string>
@@ -90,22 +89,19 @@ std::string frame_name(const SensorFrame& frame) {
 // (a frame's own row where both have one).
 void merge_truth(Trajectory& body_poses, std::vector<ImuStateGt>& states, bool with_states,
                  const std::vector<ImuTruth>& imu_truth) {
+  std::vector<TimeNs> frame_t(body_poses.size());
+  std::vector<TimeNs> sample_t(imu_truth.size());
+  for (std::size_t i = 0; i < body_poses.size(); ++i) frame_t[i] = body_poses[i].t_ns;
+  for (std::size_t i = 0; i < imu_truth.size(); ++i) sample_t[i] = imu_truth[i].t_ns;
   Trajectory poses;
   std::vector<ImuStateGt> merged_states;
-  poses.reserve(body_poses.size() + imu_truth.size());
-  std::size_t f = 0;
-  std::size_t k = 0;
-  while (f < body_poses.size() || k < imu_truth.size()) {
-    const bool take_frame = k == imu_truth.size() || (f < body_poses.size() && body_poses[f].t_ns <= imu_truth[k].t_ns);
-    if (take_frame) {
-      if (k < imu_truth.size() && imu_truth[k].t_ns == body_poses[f].t_ns) ++k;
-      poses.push_back(body_poses[f]);
-      if (with_states) merged_states.push_back(states[f]);
-      ++f;
+  for (const MergedRow& row : merge_in_time(frame_t, sample_t)) {
+    if (row.from_first) {
+      poses.push_back(body_poses[row.index]);
+      if (with_states) merged_states.push_back(states[row.index]);
     } else {
-      poses.push_back({imu_truth[k].t_ns, imu_truth[k].T_world_body});
-      if (with_states) merged_states.push_back(imu_truth[k].state);
-      ++k;
+      poses.push_back({imu_truth[row.index].t_ns, imu_truth[row.index].T_world_body});
+      if (with_states) merged_states.push_back(imu_truth[row.index].state);
     }
   }
   body_poses = std::move(poses);
@@ -201,12 +197,7 @@ void EurocWriter::write(const SensorFrame& frame) {
       if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "IMU stamps do not increase");
       last_imu = s.t_ns;
     }
-    const bool truth_matches =
-        frame.imu_truth.empty() ||
-        (frame.imu_truth.size() == frame.imu.size() &&
-         std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
-                    [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
-    if (!truth_matches) {
+    if (!imu_truth_pairs_with_samples(frame)) {
       throw InputError(frame_name(frame), "its IMU truth is not one entry per IMU sample at the sample's time");
     }
   }

@@ -81,6 +81,8 @@ struct TumRgbdWriter::Files {
   std::ofstream depth;
   std::ofstream accelerometer;  // opened with the first IMU sample
   Trajectory groundtruth;
+  Trajectory imu_groundtruth;  // camera poses at the IMU samples, while every frame with samples brought their truth
+  bool all_imu_truth = true;
 };
 
 TumRgbdWriter::TumRgbdWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
@@ -118,6 +120,9 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
     if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "accelerometer stamps do not increase");
     last_imu = s.t_ns;
   }
+  if (!imu_truth_pairs_with_samples(frame)) {
+    throw InputError(frame_name(frame), "its IMU truth is not one entry per IMU sample at the sample's time");
+  }
   last_imu_t_ns_ = last_imu;
   const std::string stamp = stamp_text(frame.t_ns);
   write_image(staging_ / "rgb" / (stamp + ".png"), frame.image);
@@ -133,6 +138,12 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
                           << exact(s.accel_mps2.y()) << ' ' << exact(s.accel_mps2.z()) << '\n';
   }
   if (frame.T_world_cam_gt) files_->groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
+  if (!frame.imu.empty()) files_->all_imu_truth = files_->all_imu_truth && !frame.imu_truth.empty();
+  if (files_->all_imu_truth && rig_.T_body_cam0) {
+    for (const ImuTruth& truth : frame.imu_truth) {
+      files_->imu_groundtruth.push_back({truth.t_ns, truth.T_world_body * *rig_.T_body_cam0});
+    }
+  }
   last_t_ns_ = frame.t_ns;
   ++frames_;
 }
@@ -143,6 +154,18 @@ void TumRgbdWriter::close() {
   for (std::ofstream* out : {&files_->rgb, &files_->depth, &files_->accelerometer}) {
     if (out->is_open()) out->close();
     if (out->fail()) throw InputError(staging_.string(), "cannot write the lists");
+  }
+  if (files_->all_imu_truth && !files_->imu_groundtruth.empty()) {
+    // The camera's poses at the IMU samples too (TUM's motion capture runs faster than the camera).
+    std::vector<TimeNs> frame_t;
+    std::vector<TimeNs> sample_t;
+    for (const StampedPose& p : files_->groundtruth) frame_t.push_back(p.t_ns);
+    for (const StampedPose& p : files_->imu_groundtruth) sample_t.push_back(p.t_ns);
+    Trajectory merged;
+    for (const MergedRow& row : merge_in_time(frame_t, sample_t)) {
+      merged.push_back(row.from_first ? files_->groundtruth[row.index] : files_->imu_groundtruth[row.index]);
+    }
+    files_->groundtruth = std::move(merged);
   }
   if (!files_->groundtruth.empty()) {
     write_trajectory(staging_ / "groundtruth.txt", files_->groundtruth, TrajectoryFormat::kTum);

@@ -494,6 +494,56 @@ TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {
   expect_input_error([&] { write_sequence(dir / "d", frames); }, {"frame 4", "accelerometer stamps do not increase"});
 }
 
+// Frames that carry the truth at their IMU samples (as the simulator's do): groundtruth.txt has the
+// camera's pose at every sample as well as at every frame (TUM's motion capture runs faster than the
+// camera), each exact, so the frame without a pose is posed by the reader from the truth at its instant.
+// Without the body-to-camera transform, or with a frame whose samples came without truth, the frames' own
+// rows only; truth that does not pair with the samples is refused.
+TEST(TumRgbdWriter, TheTruthAtTheImuSamplesAddsGroundTruthRows) {
+  TempDir dir;
+  SensorRig rig = small_rig();
+  std::mt19937 rng(31);
+  rig.T_body_cam0 = test::random_pose(rng);
+  std::vector<SensorFrame> frames = make_frames(12);
+  Trajectory expected;
+  for (SensorFrame& frame : frames) {
+    for (const ImuSample& sample : frame.imu) {
+      ImuTruth truth{sample.t_ns, test::random_pose(rng), ImuStateGt{}};
+      if (sample.t_ns == frame.t_ns && frame.T_world_cam_gt) truth.T_world_body = *frame.T_world_cam_gt * rig.T_body_cam0->inverse();
+      frame.imu_truth.push_back(truth);
+      expected.push_back({truth.t_ns, truth.T_world_body * *rig.T_body_cam0});
+    }
+  }
+  write_sequence(dir / "fast", frames, rig);
+  const Trajectory rows = read_trajectory(dir / "fast" / "groundtruth.txt", TrajectoryFormat::kTum);
+  ASSERT_EQ(rows.size(), expected.size());  // every frame's instant is a sample's
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_EQ(rows[k].t_ns, expected[k].t_ns);
+    EXPECT_LT((rows[k].T_world_body.matrix() - expected[k].T_world_body.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+  }
+  const std::vector<SensorFrame> read = read_all(*open(dir / "fast"));
+  ASSERT_EQ(read.size(), frames.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(read[i].T_world_cam_gt.has_value());  // frame 2 too
+    const Eigen::Isometry3d truth = frames[i].T_world_cam_gt ? *frames[i].T_world_cam_gt
+                                                             : frames[i].imu_truth.back().T_world_body * *rig.T_body_cam0;
+    EXPECT_LT((read[i].T_world_cam_gt->matrix() - truth.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+  }
+
+  write_sequence(dir / "no_extrinsics", frames);
+  EXPECT_EQ(read_trajectory(dir / "no_extrinsics" / "groundtruth.txt", TrajectoryFormat::kTum).size(),
+            frames.size() - 1);
+  std::vector<SensorFrame> gap = frames;
+  gap[5].imu_truth.clear();
+  write_sequence(dir / "gap", gap, rig);
+  EXPECT_EQ(read_trajectory(dir / "gap" / "groundtruth.txt", TrajectoryFormat::kTum).size(), frames.size() - 1);
+  std::vector<SensorFrame> bad = frames;
+  bad[4].imu_truth.front().t_ns -= 1;
+  expect_input_error([&] { write_sequence(dir / "bad", bad, rig); }, {"frame 4", "IMU truth"});
+}
+
 TEST(TumRgbdWriter, DepthBeyondSixteenBitsBecomesNoMeasurement) {
   TempDir dir;
   std::vector<SensorFrame> frames = make_frames(9);

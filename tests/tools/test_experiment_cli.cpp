@@ -207,11 +207,18 @@ TEST(ExperimentCliMatching, AGroundTruthDropOutMovesThePair) {
   const fs::path sequence = dir / "seq" / "alpha";
   const fs::path gt = sequence / "groundtruth.txt";
   const std::vector<std::string> lines = lines_of(read_text(gt));
-  // One pair over 15 frames starts at frame 7: drop the poses of frames 6 and 7 (lines 7 and 8, after the header).
+  // The frames' stamps (rgb.txt rows after its 3 comment lines); the ground truth also has rows between
+  // them (at the IMU samples).
+  const std::vector<std::string> rgb = lines_of(read_text(sequence / "rgb.txt"));
+  ASSERT_GT(rgb.size(), 12u);
+  const auto frame_s = [&](std::size_t k) { return std::stod(rgb[3 + k].substr(0, rgb[3 + k].find(' '))); };
+  const auto row_s = [&](const std::string& line) { return std::stod(line.substr(0, line.find(' '))); };
+  // One pair over 15 frames starts at frame 7: drop every pose from frame 6 up to frame 7 (all rows
+  // between frames 5 and 8), which leaves a gap too long to interpolate across.
   ASSERT_GT(lines.size(), 10u);
-  std::string text;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (i != 7 && i != 8) text += lines[i] + "\n";
+  std::string text = lines[0] + "\n";
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    if (!(row_s(lines[i]) > frame_s(5) && row_s(lines[i]) < frame_s(8))) text += lines[i] + "\n";
   }
   std::ofstream(gt) << text;
   const std::string args = "experiment matching --tum " + quoted(sequence) + " --tum-calibration " +
@@ -221,7 +228,11 @@ TEST(ExperimentCliMatching, AGroundTruthDropOutMovesThePair) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("the pair starts at frame 9 instead"), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(dir / "out" / "matching" / "matching.csv"));
-  std::ofstream(gt) << lines[0] << "\n" << lines[3] << "\n" << lines[6] << "\n";  // no three in a row
+  text = lines[0] + "\n";  // poses at frames 2 and 5 only: no three in a row
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    if (row_s(lines[i]) == frame_s(2) || row_s(lines[i]) == frame_s(5)) text += lines[i] + "\n";
+  }
+  std::ofstream(gt) << text;
   r = test::run_cli(args);
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no three consecutive frames with a ground-truth pose"), std::string::npos) << r.output;

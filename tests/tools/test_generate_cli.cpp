@@ -26,6 +26,7 @@
 #include "fleetslam/core/dataset.hpp"
 #include "fleetslam/core/orbslam_settings.hpp"
 #include "fleetslam/core/se3.hpp"
+#include "fleetslam/core/trajectory.hpp"
 #include "fleetslam/sim/scenario.hpp"
 #include "fleetslam/sim/world.hpp"
 
@@ -276,6 +277,17 @@ TEST_F(GenerateCli, TumSequencesMatchTheSimulator) {
     expect_same_camera(settings.rig.cam0, simulated.rigs[i].cam0);
     EXPECT_EQ(settings.rig.bf, simulated.rigs[i].bf);  // RGB-D: the virtual baseline, or beta's stereo one
     EXPECT_EQ(settings.rig.depth_scale, 5000.0);
+    // The camera's ground truth at every IMU sample and every frame, one row per instant.
+    std::vector<core::TimeNs> instants;
+    for (const core::SensorFrame& frame : simulated.frames[i]) {
+      for (const core::ImuSample& sample : frame.imu) instants.push_back(sample.t_ns);
+      instants.push_back(frame.t_ns);
+    }
+    std::sort(instants.begin(), instants.end());
+    instants.erase(std::unique(instants.begin(), instants.end()), instants.end());
+    const core::Trajectory groundtruth = core::read_trajectory(root / "groundtruth.txt", core::TrajectoryFormat::kTum);
+    ASSERT_EQ(groundtruth.size(), instants.size());
+    for (std::size_t k = 0; k < instants.size(); ++k) EXPECT_EQ(groundtruth[k].t_ns, instants[k]);
   }
 }
 
