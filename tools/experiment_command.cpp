@@ -48,6 +48,7 @@ struct ExperimentOptions {
   bool threaded = false;
   int split = 2;
   std::vector<int> features = {250, 1000, 2000};
+  std::vector<std::string> matchers;  // empty: all
   std::string doc;
 };
 
@@ -104,6 +105,20 @@ void run_experiment(const ExperimentOptions& o, const GlobalOptions& global) {
   matching_config.repetitions = o.repetitions;
   matching_config.pairs = o.pairs;
   matching_config.max_frames = o.frames;
+  if (!o.matchers.empty()) {
+    if (o.name != "matching") {
+      throw InputError("--matchers", "only with `fleetslam experiment matching` (the results document compares every matcher)");
+    }
+    matching_config.matchers.clear();
+    for (const std::string& name : o.matchers) {
+      const std::optional<ex::MatcherKind> kind = ex::matcher_from_string(name);
+      if (!kind) {
+        throw InputError("--matchers", "'" + name + "' is no matcher: brute_force, brute_force_opencv, flann_lsh, grid "
+                                       "or cross_validation");
+      }
+      matching_config.matchers.push_back(*kind);
+    }
+  }
   const ex::MatchingExperiment matching(matching_config, logger);
   ex::KeyframesConfig keyframes_config;
   keyframes_config.runs = o.runs;
@@ -184,6 +199,10 @@ void add_experiment_command(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--features", o->features, "matching: features per frame, comma-separated")
       ->delimiter(',')
       ->capture_default_str();
+  cmd->add_option("--matchers", o->matchers,
+                  "matching: the matchers to run, comma-separated (default all: brute_force, brute_force_opencv, "
+                  "flann_lsh, grid, cross_validation)")
+      ->delimiter(',');
   cmd->add_option("--runs", o->runs, "keyframes: runs per sequence and policy")->capture_default_str()->check(CLI::Range(1, 1000));
   cmd->add_flag("--threaded", o->threaded, "keyframes: run the agents' threaded mode (runs vary, outputs not repeatable)");
   cmd->add_option("--split", o->split, "sampling: robots a real sequence is split into")->capture_default_str()->check(CLI::Range(2, 26));

@@ -221,13 +221,22 @@ TEST(ExperimentCliMatching, AGroundTruthDropOutMovesThePair) {
     if (!(row_s(lines[i]) > frame_s(5) && row_s(lines[i]) < frame_s(8))) text += lines[i] + "\n";
   }
   std::ofstream(gt) << text;
-  const std::string args = "experiment matching --tum " + quoted(sequence) + " --tum-calibration " +
-                           quoted(sequence / "orbslam_settings.yaml") + " --euroc none --scenario none --frames 15 --pairs 1 " +
-                           "--repetitions 1 --features 250 --out " + quoted(dir / "out");
+  const std::string common = "experiment matching --tum " + quoted(sequence) + " --tum-calibration " +
+                             quoted(sequence / "orbslam_settings.yaml") +
+                             " --euroc none --scenario none --frames 15 --pairs 1 --repetitions 1 --features 250";
+  const std::string args = common + " --out " + quoted(dir / "out");
   test::CliResult r = test::run_cli(args);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("the pair starts at frame 9 instead"), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(dir / "out" / "matching" / "matching.csv"));
+  // --matchers runs those only, in the tables' usual order.
+  r = test::run_cli(common + " --matchers cross_validation,grid --out " + quoted(dir / "two"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<std::string> csv = lines_of(read_text(dir / "two" / "matching" / "matching.csv"));
+  ASSERT_EQ(csv.size(), 3u);  // header, grid, cross_validation
+  EXPECT_NE(csv[1].find(",grid,"), std::string::npos) << csv[1];
+  EXPECT_NE(csv[2].find(",cross_validation,"), std::string::npos) << csv[2];
+  EXPECT_NE(read_text(dir / "two" / "matching" / "matching.md").find("Cross-validation adds"), std::string::npos);
   text = lines[0] + "\n";  // poses at frames 2 and 5 only: no three in a row
   for (std::size_t i = 1; i < lines.size(); ++i) {
     if (row_s(lines[i]) == frame_s(2) || row_s(lines[i]) == frame_s(5)) text += lines[i] + "\n";
@@ -250,6 +259,9 @@ TEST(ExperimentCliErrors, BadSettingsExitTwo) {
   // Nothing to run on, or a frame count that is neither -1 nor positive, is an error, not empty tables.
   expect_exit_two("matching", "all are none");
   expect_exit_two("matching --frames -5", "--frames");
+  expect_exit_two("matching --matchers grid,nope", "'nope' is no matcher");
+  expect_exit_two("matching --matchers grid,cross_validation,grid", "grid is named twice");
+  expect_exit_two("keyframes --matchers grid", "only with `fleetslam experiment matching`");
 }
 
 // Renderings and sequences are named by the scenario's file name: two of one name are refused up front

@@ -55,6 +55,13 @@ std::vector<MatcherKind> all_matchers() {
           MatcherKind::kCrossValidation};
 }
 
+std::optional<MatcherKind> matcher_from_string(const std::string& name) {
+  for (const MatcherKind kind : all_matchers()) {
+    if (to_string(kind) == name) return kind;
+  }
+  return std::nullopt;
+}
+
 std::vector<slam::Match> run_matcher(MatcherKind kind, const MatchPair& pair, const MatchSettings& settings) {
   switch (kind) {
     case MatcherKind::kBruteForce:

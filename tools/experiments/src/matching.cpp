@@ -104,6 +104,15 @@ slam::FrameBuilderConfig builder_config(const SequenceSpec& spec, int features) 
   return config;
 }
 
+// The selected matchers in all_matchers' order.
+std::vector<MatcherKind> selected_matchers(const std::vector<MatcherKind>& selection) {
+  std::vector<MatcherKind> kinds;
+  for (const MatcherKind kind : all_matchers()) {
+    if (std::find(selection.begin(), selection.end(), kind) != selection.end()) kinds.push_back(kind);
+  }
+  return kinds;
+}
+
 // What cross-validation adds to the single-stage grid matcher's median time, per feature count (the
 // paper's cost of the method: 1.05 -> 1.24 ms, +18 %, at 1000 features), as a Markdown paragraph; empty
 // when no feature count has both rows.
@@ -142,6 +151,13 @@ MatchingExperiment::MatchingExperiment(const MatchingConfig& config, core::Logge
   }
   if (config_.repetitions < 1) throw InputError("--repetitions", "must be at least 1");
   if (config_.pairs < 1) throw InputError("--pairs", "must be at least 1");
+  if (config_.matchers.empty()) throw InputError("--matchers", "needs at least one matcher");
+  for (std::size_t i = 0; i < config_.matchers.size(); ++i) {
+    if (std::count(config_.matchers.begin(), config_.matchers.begin() + static_cast<std::ptrdiff_t>(i),
+                   config_.matchers[i]) > 0) {
+      throw InputError("--matchers", to_string(config_.matchers[i]) + " is named twice");
+    }
+  }
 }
 
 MatchingResult MatchingExperiment::run(const std::vector<SequenceSpec>& sequences) const {
@@ -163,7 +179,7 @@ MatchingResult MatchingExperiment::run(const std::vector<SequenceSpec>& sequence
       // overhead over the grid matcher varied by tens of percent from run to run on a shared machine.
       // The other matchers (each far slower, with another memory footprint that would leave the
       // projection matchers' data out of the caches) are timed in runs of their own.
-      const std::vector<MatcherKind> kinds = all_matchers();
+      const std::vector<MatcherKind> kinds = selected_matchers(config_.matchers);
       std::vector<std::vector<std::size_t>> groups;
       std::vector<std::size_t> projection;
       for (std::size_t k = 0; k < kinds.size(); ++k) {
@@ -257,7 +273,7 @@ std::vector<fs::path> write_matching_outputs(const MatchingResult& result, const
     }
     LinePlot time_plot{"Matching time, " + sequence, "features per frame", "median ms per match", {}};
     LinePlot precision_plot{"Matching precision, " + sequence, "features per frame", "precision", {}};
-    for (const MatcherKind kind : all_matchers()) {
+    for (const MatcherKind kind : selected_matchers(result.config.matchers)) {
       std::vector<std::string> cells = {to_string(kind)};
       PlotSeries time_series{to_string(kind), {}, {}}, precision_series{to_string(kind), {}, {}};
       for (const MatchingRow& r : result.rows) {

@@ -11,6 +11,7 @@
 // library's generator: run_matcher seeds it (MatchSettings::lsh_seed) before every index build, so the
 // same input gives the same matches.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,8 @@ enum class MatcherKind { kBruteForce, kBruteForceOpenCv, kFlannLsh, kGrid, kCros
 // "brute_force", "brute_force_opencv", "flann_lsh", "grid", "cross_validation".
 std::string to_string(MatcherKind kind);
 std::vector<MatcherKind> all_matchers();
+// The kind named as to_string names it; nullopt for any other name.
+std::optional<MatcherKind> matcher_from_string(const std::string& name);
 
 // Two frames to match, A the earlier one, with their features' 3D points and the transforms.
 struct MatchPair {

@@ -29,6 +29,9 @@ struct MatchingConfig {
   std::int64_t max_frames = -1;  // pairs are picked among the first max_frames frames (-1: all)
   double correct_px = 3.0;
   MatchSettings settings;
+  // The matchers to run (each at most once; rows and tables keep all_matchers' order). Timing grid and
+  // cross_validation alone is the quick way to their ratio.
+  std::vector<MatcherKind> matchers = all_matchers();
 };
 
 struct MatchingRow {
@@ -51,7 +54,7 @@ struct MatchingResult {
 
 class MatchingExperiment {
  public:
-  // Throws InputError for bad settings (empty feature list, counts out of range).
+  // Throws InputError for bad settings (empty feature list, counts out of range, no matcher or one twice).
   MatchingExperiment(const MatchingConfig& config, core::Logger logger);
   // Throws InputError for a sequence that cannot be read or has too few frames with ground truth.
   MatchingResult run(const std::vector<SequenceSpec>& sequences) const;
