@@ -234,9 +234,8 @@ class SearchedFrame {
 // offering the sorted candidates). Without branches on the in-area flag (which features pass is
 // unpredictable): every scanned feature's distance is computed and a non-candidate's made kOutside. Keys
 // (distance << 32 | index) order by distance, then index.
-FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
-Nearest nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched, const SearchedFrame::Query& q,
-                        double radius_px) {
+inline Nearest nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched,
+                               const SearchedFrame::Query& q, double radius_px) {
   constexpr std::uint32_t kOutside = std::numeric_limits<std::uint32_t>::max();  // "distance" of a non-candidate
   const Frame& frame = searched.frame();
   const std::uint8_t* const rows = frame.descriptors.data;
@@ -264,9 +263,8 @@ Nearest nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched
 // only for the other candidates, which are few: the grid filters the scanned features four at a time
 // (FeatureGrid::visit_area) and offers only the candidates, so stage 2 spends little on each feature it
 // scans. (Stage 1 computes every scanned feature's distance instead: with that filter it was no faster.)
-FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
-bool is_nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched, const SearchedFrame::Query& q,
-                        double radius_px, int expected, int expected_distance) {
+inline bool is_nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched,
+                               const SearchedFrame::Query& q, double radius_px, int expected, int expected_distance) {
   const Frame& frame = searched.frame();
   const std::uint8_t* const rows = frame.descriptors.data;
   const std::size_t step = frame.descriptors.step[0];
@@ -349,13 +347,13 @@ std::vector<Match> finish(const std::vector<Match>& proposals, const Frame& a, c
 }
 
 // Stage 1 (the single-stage matcher): each B feature with a 3D point, projected into A with T_a_b,
-// against A's features within radius_px * scale[level of the B feature].
-std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const FeaturePoints& p_b,
-                                    const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
-  const SearchedFrame searched(a);
-  const std::vector<double> radius = radius_per_level(config.radius_px, b.pyramid);
-  std::vector<Match> proposals;
-  proposals.reserve(b.size());
+// against A's features (the searched frame) within radius_px * scale[level of the B feature]. The whole
+// loop is cloned and flattened: the search inlined into it, rather than a call through the clones'
+// dispatch per feature, made stage 1 about 7 % faster on TUM and office pairs (experiment matching).
+FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
+void propose_b_into_a(const Frame& b, const FeaturePoints& p_b, const Eigen::Isometry3d& T_a_b,
+                      const SearchedFrame& searched, const std::vector<double>& radius, const MatcherConfig& config,
+                      std::vector<Match>& proposals) {
   SearchedFrame::Query query;
   for (std::size_t ib = 0; ib < b.size(); ++ib) {
     if (!p_b[ib]) continue;
@@ -366,6 +364,15 @@ std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const Featur
                                             radius[static_cast<std::size_t>(level_b)]);
     if (passes_thresholds(nearest, config)) proposals.push_back({nearest.index, static_cast<int>(ib), nearest.distance});
   }
+}
+
+std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const FeaturePoints& p_b,
+                                    const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
+  const SearchedFrame searched(a);
+  const std::vector<double> radius = radius_per_level(config.radius_px, b.pyramid);
+  std::vector<Match> proposals;
+  proposals.reserve(b.size());
+  propose_b_into_a(b, p_b, T_a_b, searched, radius, config, proposals);
   return finish(proposals, a, b, config);
 }
 
@@ -373,7 +380,8 @@ std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const Featur
 // r2 = r2_over_r1 * radius_px * scale[level of the A feature]; the pair stays only when the stage-1 B
 // feature is the closest candidate. A point of A behind B or outside B's image cannot confirm the pair.
 // The stage-1 B feature is tested first (its level and distance, without the grid): when it is no
-// candidate the pair is rejected without a search.
+// candidate the pair is rejected without a search. Cloned and flattened as stage 1's loop is.
+FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
 void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_a, const Frame& b,
                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
   const Eigen::Isometry3d T_b_a = T_a_b.inverse();
