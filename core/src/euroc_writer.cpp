@@ -168,7 +168,9 @@ void EurocWriter::write_images(const SensorFrame& frame) {
     }
     if (image.type() == CV_8UC1) return image;
     if (image.type() != CV_8UC3) throw InputError(frame_name(frame), "image must be 8-bit colour or gray");
-    if (!warned_colour_) logger_->warn("{}: colour images converted to gray (EuRoC layout)", mav0_.string());
+    if (!warned_colour_) {
+      logger_->warn("{}: colour images converted to gray ({} layout)", mav0_.string(), to_string(layout_));
+    }
     warned_colour_ = true;
     cv::Mat converted;
     cv::cvtColor(image, converted, cv::COLOR_BGR2GRAY);
@@ -202,7 +204,9 @@ void EurocWriter::write(const SensorFrame& frame) {
     }
   }
   write_images(frame);
-  if (frame.has_depth() && !warned_depth_) logger_->warn("{}: depth maps dropped (EuRoC layout)", mav0_.string());
+  if (frame.has_depth() && !warned_depth_) {
+    logger_->warn("{}: depth maps dropped ({} layout)", mav0_.string(), to_string(layout_));
+  }
   warned_depth_ = warned_depth_ || frame.has_depth();
   if (!rig_.imu && !frame.imu.empty() && !warned_imu_) {
     logger_->warn("{}: IMU samples dropped: the rig has no IMU", mav0_.string());
