@@ -121,11 +121,12 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image) {
   if (!written) throw InputError(file.string(), "cannot write the image");
 }
 
-bool imu_truth_pairs_with_samples(const SensorFrame& frame) {
-  return frame.imu_truth.empty() ||
-         (frame.imu_truth.size() == frame.imu.size() &&
-          std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
-                     [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
+void check_imu_truth_pairs(const SensorFrame& frame, const std::string& frame_name) {
+  const bool pairs = frame.imu_truth.empty() ||
+                     (frame.imu_truth.size() == frame.imu.size() &&
+                      std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
+                                 [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
+  if (!pairs) throw InputError(frame_name, "its IMU truth is not one entry per IMU sample at the sample's time");
 }
 
 std::vector<MergedRow> merge_in_time(const std::vector<TimeNs>& first, const std::vector<TimeNs>& second) {

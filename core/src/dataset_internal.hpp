@@ -154,8 +154,9 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image);
 
 Logger or_null(Logger logger);
 
-// A frame's imu_truth is empty or one entry per IMU sample at the sample's t_ns (writers refuse it otherwise).
-bool imu_truth_pairs_with_samples(const SensorFrame& frame);
+// Writers' check: a frame's imu_truth is empty or one entry per IMU sample at the sample's t_ns;
+// InputError naming the frame (`frame_name`) otherwise.
+void check_imu_truth_pairs(const SensorFrame& frame, const std::string& frame_name);
 
 // One row of two increasing stamp lists merged in time order: from `first` (else `second`), at `index`.
 struct MergedRow {

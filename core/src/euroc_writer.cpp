@@ -199,9 +199,7 @@ void EurocWriter::write(const SensorFrame& frame) {
       if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "IMU stamps do not increase");
       last_imu = s.t_ns;
     }
-    if (!imu_truth_pairs_with_samples(frame)) {
-      throw InputError(frame_name(frame), "its IMU truth is not one entry per IMU sample at the sample's time");
-    }
+    check_imu_truth_pairs(frame, frame_name(frame));
   }
   write_images(frame);
   if (frame.has_depth() && !warned_depth_) {

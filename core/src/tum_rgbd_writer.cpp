@@ -120,9 +120,7 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
     if (last_imu && s.t_ns <= *last_imu) throw InputError(frame_name(frame), "accelerometer stamps do not increase");
     last_imu = s.t_ns;
   }
-  if (!imu_truth_pairs_with_samples(frame)) {
-    throw InputError(frame_name(frame), "its IMU truth is not one entry per IMU sample at the sample's time");
-  }
+  check_imu_truth_pairs(frame, frame_name(frame));
   last_imu_t_ns_ = last_imu;
   const std::string stamp = stamp_text(frame.t_ns);
   write_image(staging_ / "rgb" / (stamp + ".png"), frame.image);
