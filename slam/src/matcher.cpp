@@ -156,8 +156,9 @@ class SearchedFrame {
   // or the image).
   bool query(const Eigen::Vector3d& p_cam, int level, const Eigen::Vector3d& p_seen, Query& q) const {
     if (!(p_cam.z() > core::PinholeCamera::min_depth)) return false;
-    q.u = fx_ * p_cam.x() / p_cam.z() + cx_;
-    q.v = fy_ * p_cam.y() / p_cam.z() + cy_;
+    const double inv_z = 1.0 / p_cam.z();
+    q.u = fx_ * p_cam.x() * inv_z + cx_;
+    q.v = fy_ * p_cam.y() * inv_z + cy_;
     if (!(q.u >= area_.min_u && q.u < area_.max_u && q.v >= area_.min_v && q.v < area_.max_v)) return false;
     level_window(level, p_seen.squaredNorm(), p_cam.squaredNorm(), q);
     return true;
@@ -261,16 +262,15 @@ inline Nearest nearest_in_area(const std::uint8_t* query, const SearchedFrame& s
 // Stage 2's test: `expected` is a candidate and no other candidate is strictly closer to the query (a tie
 // cannot tell the two apart, so it does not overrule stage 1). Unlike stage 1, descriptors are compared
 // only for the other candidates, which are few: the grid filters the scanned features four at a time
-// (FeatureGrid::visit_area) and offers only the candidates, so stage 2 spends little on each feature it
-// scans. (Stage 1 computes every scanned feature's distance instead: with that filter it was no faster.)
-inline bool is_nearest_in_area(const std::uint8_t* query, const SearchedFrame& searched,
-                               const SearchedFrame::Query& q, double radius_px, int expected, int expected_distance) {
-  const Frame& frame = searched.frame();
-  const std::uint8_t* const rows = frame.descriptors.data;
-  const std::size_t step = frame.descriptors.step[0];
+// (FeatureGrid::visit_prepared) and offers only the candidates, so stage 2 spends little on each feature
+// it scans. (Stage 1 computes every scanned feature's distance instead: with that filter it was no faster.)
+inline bool is_nearest_in_area(const std::uint8_t* query, const Frame& searched, const FeatureGrid::Area& area,
+                               int expected, int expected_distance) {
+  const std::uint8_t* const rows = searched.descriptors.data;
+  const std::size_t step = searched.descriptors.step[0];
   bool found = false;
   bool closer = false;
-  frame.grid.visit_area(q.u, q.v, radius_px, q.min_level, q.max_level, [&](int i) {
+  searched.grid.visit_prepared(area, [&](int i) {
     if (i == expected) {
       found = true;
     } else {
@@ -380,37 +380,63 @@ std::vector<Match> project_b_into_a(const Frame& a, const Frame& b, const Featur
 // r2 = r2_over_r1 * radius_px * scale[level of the A feature]; the pair stays only when the stage-1 B
 // feature is the closest candidate. A point of A behind B or outside B's image cannot confirm the pair.
 // The stage-1 B feature is tested first (its level and distance, without the grid): when it is no
-// candidate the pair is rejected without a search. Cloned and flattened as stage 1's loop is.
+// candidate the pair is rejected without a search.
+// Two passes: the first projects every point and finds its cells, the second searches them. Apart, the
+// first pass's arithmetic (a division per point) and the second's loads overlap better across matches
+// than in one loop: stage 2 measured about 8 % faster (experiment matching, 1000 features). Cloned and
+// flattened as stage 1's loop is.
 FLEETSLAM_POPCNT_CLONES FLEETSLAM_FLATTEN
 void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_a, const Frame& b,
                     const Eigen::Isometry3d& T_a_b, const MatcherConfig& config) {
   const Eigen::Isometry3d T_b_a = T_a_b.inverse();
   const SearchedFrame searched(b);
   const std::vector<double> radius = radius_per_level(config.r2_over_r1 * config.radius_px, a.pyramid);
-  std::vector<Match> kept;
-  kept.reserve(result.matches.size());
+  struct Search {
+    FeatureGrid::Area area;
+    std::size_t match = 0;  // index in result.matches
+    bool confirmed = false;
+  };
+  std::vector<Search> searches;
+  searches.reserve(result.matches.size());
   SearchedFrame::Query query;
-  for (const Match& m : result.matches) {
+  for (std::size_t k = 0; k < result.matches.size(); ++k) {
+    const Match& m = result.matches[k];
     const auto ia = static_cast<std::size_t>(m.a);
-    if (!p_a[ia]) {  // monocular A feature: nothing to check with
-      ++result.unchecked;
-      kept.push_back(m);
-      continue;
-    }
+    if (!p_a[ia]) continue;  // monocular A feature: nothing to check with (kept below)
     const Eigen::Vector3d& point = *p_a[ia];
     const int level_a = a.level[ia];
     const double r2_px = radius[static_cast<std::size_t>(level_a)];
-    const bool confirmed =
-        searched.query(T_b_a * point, level_a, point, query) &&
+    Search search;
+    search.match = k;
+    if (searched.query(T_b_a * point, level_a, point, query) &&
         searched.level_and_distance_pass(query, r2_px, static_cast<std::size_t>(m.b)) &&
-        is_nearest_in_area(a.descriptors.ptr<std::uint8_t>(m.a), searched, query, r2_px, m.b, m.distance);
-    if (confirmed) {
-      kept.push_back(m);
+        b.grid.prepare_area(query.u, query.v, r2_px, query.min_level, query.max_level, search.area)) {
+      searches.push_back(search);
+    }
+  }
+  for (Search& search : searches) {
+    const Match& m = result.matches[search.match];
+    search.confirmed = is_nearest_in_area(a.descriptors.ptr<std::uint8_t>(m.a), b, search.area, m.b, m.distance);
+  }
+  // Both lists are in match order: a checked match without a confirmed search is rejected.
+  std::size_t kept = 0;
+  auto next = searches.begin();
+  for (std::size_t k = 0; k < result.matches.size(); ++k) {
+    bool keep = false;
+    if (!p_a[static_cast<std::size_t>(result.matches[k].a)]) {
+      ++result.unchecked;
+      keep = true;
+    } else if (next != searches.end() && next->match == k) {
+      keep = next->confirmed;
+      ++next;
+    }
+    if (keep) {
+      result.matches[kept++] = result.matches[k];
     } else {
       ++result.rejected_by_cross_check;
     }
   }
-  result.matches = std::move(kept);
+  result.matches.resize(kept);
 }
 
 }  // namespace

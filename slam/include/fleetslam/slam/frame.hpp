@@ -138,6 +138,18 @@ class FeatureGrid {
   // with work on few candidates. Inline (below).
   template <class Visit>
   void visit_area(double u, double v, double radius_px, int min_level, int max_level, Visit&& visit) const;
+  // visit_area in two steps, for a caller with many queries: prepare_area finds a query's cells (false
+  // where visit_area would visit nothing) and visit_prepared visits its features as visit_area does. A
+  // caller that prepares all its queries first keeps the arithmetic of finding the cells apart from the
+  // loads of visiting them.
+  struct Area {
+    double u = 0.0, v = 0.0, r2 = 0.0;
+    int lowest = 0, highest = 0;
+    int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  };
+  bool prepare_area(double u, double v, double radius_px, int min_level, int max_level, Area& area) const;
+  template <class Visit>
+  void visit_prepared(const Area& area, Visit&& visit) const;
   // Every indexed feature of the cells that the query square overlaps, offered in grid order as
   // visit(index, in_area), where in_area says whether it is one of features_in_area's (distance <=
   // radius_px, level within the bounds). For callers that fold the test into their own per-candidate work
@@ -232,19 +244,30 @@ inline bool FeatureGrid::query_cells(double u, double v, double radius_px, int m
          cell_range(v - radius_px, v + radius_px, min_v_, inv_cell_h_, rows_, cells.y0, cells.y1);
 }
 
+inline bool FeatureGrid::prepare_area(double u, double v, double radius_px, int min_level, int max_level,
+                                      Area& area) const {
+  Cells c;
+  if (!query_cells(u, v, radius_px, min_level, max_level, c)) return false;
+  area = Area{u, v, radius_px * radius_px, c.lowest, c.highest, c.x0, c.x1, c.y0, c.y1};
+  return true;
+}
+
 template <class Visit>
 void FeatureGrid::visit_area(double u, double v, double radius_px, int min_level, int max_level, Visit&& visit) const {
-  Cells c;
-  if (!query_cells(u, v, radius_px, min_level, max_level, c)) return;
-  const double r2 = radius_px * radius_px;
-  const int* row = cell_start_.data() + static_cast<std::ptrdiff_t>(c.y0) * cols_;
-  for (int y = c.y0; y <= c.y1; ++y, row += cols_) {
-    const int end = row[c.x1 + 1];
-    for (int first = row[c.x0]; first < end; first += 4) {
+  Area area;
+  if (prepare_area(u, v, radius_px, min_level, max_level, area)) visit_prepared(area, visit);
+}
+
+template <class Visit>
+void FeatureGrid::visit_prepared(const Area& a, Visit&& visit) const {
+  const int* row = cell_start_.data() + static_cast<std::ptrdiff_t>(a.y0) * cols_;
+  for (int y = a.y0; y <= a.y1; ++y, row += cols_) {
+    const int end = row[a.x1 + 1];
+    for (int first = row[a.x0]; first < end; first += 4) {
       const auto f = static_cast<std::size_t>(first);
       // Entries past the slice (the next cells', or the spare ones) are masked off.
       const int valid = end - first >= 4 ? 0xF : (1 << (end - first)) - 1;
-      int mask = detail::in_area_mask4(&u_[f], &v_[f], &level_[f], u, v, r2, c.lowest, c.highest) & valid;
+      int mask = detail::in_area_mask4(&u_[f], &v_[f], &level_[f], a.u, a.v, a.r2, a.lowest, a.highest) & valid;
       while (mask != 0) {
         const int k = __builtin_ctz(static_cast<unsigned>(mask));
         mask &= mask - 1;
