@@ -406,12 +406,14 @@ void cross_validate(MatchResult& result, const Frame& a, const FeaturePoints& p_
     const Eigen::Vector3d& point = *p_a[ia];
     const int level_a = a.level[ia];
     const double r2_px = radius[static_cast<std::size_t>(level_a)];
-    Search search;
+    // Built in place: a Search built aside was copied in with wider loads than the stores that had just
+    // written it, which the CPU cannot forward from its store buffer (the loop's hottest spot in a profile).
+    Search& search = searches.emplace_back();
     search.match = k;
-    if (searched.query(T_b_a * point, level_a, point, query) &&
-        searched.level_and_distance_pass(query, r2_px, static_cast<std::size_t>(m.b)) &&
-        b.grid.prepare_area(query.u, query.v, r2_px, query.min_level, query.max_level, search.area)) {
-      searches.push_back(search);
+    if (!(searched.query(T_b_a * point, level_a, point, query) &&
+          searched.level_and_distance_pass(query, r2_px, static_cast<std::size_t>(m.b)) &&
+          b.grid.prepare_area(query.u, query.v, r2_px, query.min_level, query.max_level, search.area))) {
+      searches.pop_back();
     }
   }
   for (Search& search : searches) {
