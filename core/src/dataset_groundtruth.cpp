@@ -67,8 +67,9 @@ ImuStateGt state_at(const std::vector<std::vector<double>>& columns, const TimeB
 }  // namespace
 
 void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
-                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
-                        const Logger& logger) {
+                        const std::optional<Eigen::Isometry3d>& T_body_cam,
+                        const std::optional<Eigen::Isometry3d>& rig_T_body_cam0, const DatasetConfig& config,
+                        bool given, const Logger& logger) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) {
     throw InputError(file.string(), std::filesystem::is_directory(file, ec) ? "is a folder; give the ground-truth file"
@@ -94,6 +95,25 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
     entry.T_world_cam_gt = T_body_cam ? T_world_body * *T_body_cam : T_world_body;
     if (states) entry.imu_state_gt = state_at(read.columns_after_pose, *at);
     ++covered;
+  }
+  // The truth at the IMU samples, in the body (IMU) frame: the file's body poses, or its camera poses
+  // moved to the body (T_world_body = T_world_cam * T_body_cam0^-1).
+  std::optional<Eigen::Isometry3d> T_file_body;  // the body in the frame the file's poses are of
+  if (T_body_cam) {
+    T_file_body = Eigen::Isometry3d::Identity();
+  } else if (rig_T_body_cam0) {
+    T_file_body = rig_T_body_cam0->inverse();
+  }
+  if (T_file_body && !sequence.imu.empty()) {
+    sequence.imu_truth.assign(sequence.imu.size(), std::nullopt);
+    for (std::size_t k = 0; k < sequence.imu.size(); ++k) {
+      const TimeNs t_ns = sequence.imu[k].t_ns;
+      const std::optional<TimeBracket> at = bracket_at(trajectory, t_ns, max_gap_ns);
+      if (!at) continue;
+      ImuTruth truth{t_ns, pose_at(trajectory, *at) * *T_file_body, std::nullopt};
+      if (states) truth.state = state_at(read.columns_after_pose, *at);
+      sequence.imu_truth[k] = truth;
+    }
   }
   if (covered == 0 && !sequence.entries.empty()) {
     const std::string why =

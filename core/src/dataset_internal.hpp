@@ -95,16 +95,23 @@ struct RecordedSequence {
   DatasetInfo info;
   std::vector<FrameEntry> entries;  // every usable frame, before selection, in time order
   std::vector<ImuSample> imu;       // every sample of the IMU file, in time order
+  // Empty, or one entry per sample of `imu`: the truth there where the ground truth knows it
+  // (attach_groundtruth, from body poses).
+  std::vector<std::optional<ImuTruth>> imu_truth;
   ImageKind image_kind = ImageKind::kColour;
 };
 
 // Ground truth for the entries: reads `file` and gives each entry the pose at its stamp, composed with
-// T_body_cam when the file holds body poses. Fills the info fields about ground truth. A file that gives
+// T_body_cam when the file holds body poses. Then each IMU sample gets the truth at its stamp: the body's
+// pose (the file's, or its camera pose moved to the body through rig_T_body_cam0 when the file holds
+// camera poses; none without either) and the IMU's state where the file has EuRoC's state columns.
+// Fills the info fields about ground truth. A file that gives
 // no frame a pose (another sequence's, or stamps on another clock) is an InputError naming both time
 // spans when the user gave it (`given`), a warning when it is the dataset's own.
 void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path& file,
-                        const std::optional<Eigen::Isometry3d>& T_body_cam, const DatasetConfig& config, bool given,
-                        const Logger& logger);
+                        const std::optional<Eigen::Isometry3d>& T_body_cam,
+                        const std::optional<Eigen::Isometry3d>& rig_T_body_cam0, const DatasetConfig& config,
+                        bool given, const Logger& logger);
 
 // Median spacing of sorted stamps in ns (0 for fewer than two).
 TimeNs median_interval_ns(const std::vector<TimeNs>& stamps);

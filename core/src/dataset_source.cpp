@@ -98,7 +98,7 @@ class RecordedSource final : public FrameSource {
         unreadable_.push_back({e.where(), e.why()});
         continue;
       }
-      frame.imu = imu_until(entry.t_ns);
+      take_imu_until(entry.t_ns, frame);
       frame.sequence = yielded_++;
       return frame;
     }
@@ -146,13 +146,20 @@ class RecordedSource final : public FrameSource {
     }
   }
 
-  // IMU samples with t in (last frame handed out, t_ns].
-  std::vector<ImuSample> imu_until(TimeNs t_ns) {
+  // The IMU samples with t in (last frame handed out, t_ns] into frame.imu, and their truth into
+  // frame.imu_truth when the sequence knows it at every one of them (SensorFrame: all or none).
+  void take_imu_until(TimeNs t_ns, SensorFrame& frame) {
     const auto by_time = [](TimeNs t, const ImuSample& s) { return t < s.t_ns; };
     const auto begin = std::upper_bound(seq_.imu.begin(), seq_.imu.end(), last_t_ns_, by_time);
     const auto end = std::upper_bound(begin, seq_.imu.end(), t_ns, by_time);
     last_t_ns_ = t_ns;
-    return std::vector<ImuSample>(begin, end);
+    frame.imu.assign(begin, end);
+    if (seq_.imu_truth.empty() || begin == end) return;
+    const auto first = seq_.imu_truth.begin() + (begin - seq_.imu.begin());
+    const auto last = seq_.imu_truth.begin() + (end - seq_.imu.begin());
+    if (!std::all_of(first, last, [](const std::optional<ImuTruth>& truth) { return truth.has_value(); })) return;
+    frame.imu_truth.reserve(frame.imu.size());
+    for (auto it = first; it != last; ++it) frame.imu_truth.push_back(**it);
   }
 
   RecordedSequence seq_;

@@ -101,7 +101,7 @@ void merge_truth(Trajectory& body_poses, std::vector<ImuStateGt>& states, bool w
       if (with_states) merged_states.push_back(states[row.index]);
     } else {
       poses.push_back({imu_truth[row.index].t_ns, imu_truth[row.index].T_world_body});
-      if (with_states) merged_states.push_back(imu_truth[row.index].state);
+      if (with_states) merged_states.push_back(*imu_truth[row.index].state);
     }
   }
   body_poses = std::move(poses);
@@ -119,8 +119,8 @@ struct EurocWriter::Files {
   Trajectory body_poses;
   std::vector<ImuStateGt> states;  // one per body pose while every posed frame brought one
   bool all_states = true;
-  std::vector<ImuTruth> imu_truth;  // the truth at the IMU samples, while every frame with samples brought it
-  bool all_imu_truth = true;
+  std::vector<ImuTruth> imu_truth;  // the truth at the IMU samples of the frames that brought it
+  bool all_truth_states = true;     // every entry of imu_truth has the IMU's state
 };
 
 EurocWriter::EurocWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger, DatasetFormat layout)
@@ -218,9 +218,9 @@ void EurocWriter::write(const SensorFrame& frame) {
       files_->last_imu_t_ns = s.t_ns;
       files_->any_imu = true;
     }
-    if (!frame.imu.empty()) files_->all_imu_truth = files_->all_imu_truth && !frame.imu_truth.empty();
-    if (files_->all_imu_truth) {
-      files_->imu_truth.insert(files_->imu_truth.end(), frame.imu_truth.begin(), frame.imu_truth.end());
+    for (const ImuTruth& truth : frame.imu_truth) {
+      files_->imu_truth.push_back(truth);
+      files_->all_truth_states = files_->all_truth_states && truth.state.has_value();
     }
   }
   if (frame.T_world_cam_gt) {
@@ -244,8 +244,9 @@ void EurocWriter::close() {
     logger_->warn("{}: the rig has an IMU but no frame brought a sample: imu0/ left out", mav0_.string());
     std::filesystem::remove_all(mav0_ / "imu0");
   }
-  const bool with_states = files_->all_states && rig_.imu && layout_ == DatasetFormat::kEuroc;
-  if (rig_.imu && files_->all_imu_truth && !files_->imu_truth.empty()) {
+  const bool with_states =
+      files_->all_states && files_->all_truth_states && rig_.imu && layout_ == DatasetFormat::kEuroc;
+  if (rig_.imu && !files_->imu_truth.empty()) {
     merge_truth(files_->body_poses, files_->states, with_states, files_->imu_truth);
   }
   if (!files_->body_poses.empty()) {

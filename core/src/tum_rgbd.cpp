@@ -209,6 +209,10 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
   depth = drop_absent_images(std::move(depth), config.skip_unreadable_frames, sequence.info.skipped, logger);
   sequence.entries = pair_rgb_depth(rgb, depth, config, sequence.info, logger);
 
+  // The accelerometer first: the ground truth gives its samples their truth too.
+  if (config.load_imu && std::filesystem::exists(root / "accelerometer.txt", ec)) {
+    attach_accelerometer(sequence, root / "accelerometer.txt");
+  }
   const std::filesystem::path gt_file =
       config.groundtruth_file.empty() ? root / "groundtruth.txt" : std::filesystem::path(config.groundtruth_file);
   if (!config.groundtruth_file.empty() || std::filesystem::exists(gt_file, ec)) {
@@ -217,10 +221,7 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
                                          "body-to-camera transform (T_body_cam0: IMU.T_b_c1 or Tbc)");
     }
     attach_groundtruth(sequence, gt_file, config.groundtruth_in_body_frame ? sequence.rig.T_body_cam0 : std::nullopt,
-                       config, !config.groundtruth_file.empty(), logger);
-  }
-  if (config.load_imu && std::filesystem::exists(root / "accelerometer.txt", ec)) {
-    attach_accelerometer(sequence, root / "accelerometer.txt");
+                       sequence.rig.T_body_cam0, config, !config.groundtruth_file.empty(), logger);
   }
   return make_recorded_source(std::move(sequence), config, std::move(logger));
 }

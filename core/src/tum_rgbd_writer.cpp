@@ -81,8 +81,7 @@ struct TumRgbdWriter::Files {
   std::ofstream depth;
   std::ofstream accelerometer;  // opened with the first IMU sample
   Trajectory groundtruth;
-  Trajectory imu_groundtruth;  // camera poses at the IMU samples, while every frame with samples brought their truth
-  bool all_imu_truth = true;
+  Trajectory imu_groundtruth;  // camera poses at the IMU samples of the frames that brought their truth
 };
 
 TumRgbdWriter::TumRgbdWriter(const std::filesystem::path& root, const SensorRig& rig, Logger logger)
@@ -136,8 +135,7 @@ void TumRgbdWriter::write(const SensorFrame& frame) {
                           << exact(s.accel_mps2.y()) << ' ' << exact(s.accel_mps2.z()) << '\n';
   }
   if (frame.T_world_cam_gt) files_->groundtruth.push_back({frame.t_ns, *frame.T_world_cam_gt});
-  if (!frame.imu.empty()) files_->all_imu_truth = files_->all_imu_truth && !frame.imu_truth.empty();
-  if (files_->all_imu_truth && rig_.T_body_cam0) {
+  if (rig_.T_body_cam0) {
     for (const ImuTruth& truth : frame.imu_truth) {
       files_->imu_groundtruth.push_back({truth.t_ns, truth.T_world_body * *rig_.T_body_cam0});
     }
@@ -153,7 +151,7 @@ void TumRgbdWriter::close() {
     if (out->is_open()) out->close();
     if (out->fail()) throw InputError(staging_.string(), "cannot write the lists");
   }
-  if (files_->all_imu_truth && !files_->imu_groundtruth.empty()) {
+  if (!files_->imu_groundtruth.empty()) {
     // The camera's poses at the IMU samples too (TUM's motion capture runs faster than the camera).
     std::vector<TimeNs> frame_t;
     std::vector<TimeNs> sample_t;

@@ -383,10 +383,11 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
     ASSERT_EQ(f.size(), 17u);
     EXPECT_EQ(std::stoll(f[0]), truth[k].t_ns);
     EXPECT_TRUE(pose_of_row(f).isApprox(truth[k].T_world_body, 1e-12));
+    ASSERT_TRUE(truth[k].state.has_value());
     for (int c = 0; c < 3; ++c) {
-      EXPECT_EQ(std::stod(f[8 + static_cast<std::size_t>(c)]), truth[k].state.v_world_mps(c));
-      EXPECT_EQ(std::stod(f[11 + static_cast<std::size_t>(c)]), truth[k].state.gyro_bias_radps(c));
-      EXPECT_EQ(std::stod(f[14 + static_cast<std::size_t>(c)]), truth[k].state.accel_bias_mps2(c));
+      EXPECT_EQ(std::stod(f[8 + static_cast<std::size_t>(c)]), truth[k].state->v_world_mps(c));
+      EXPECT_EQ(std::stod(f[11 + static_cast<std::size_t>(c)]), truth[k].state->gyro_bias_radps(c));
+      EXPECT_EQ(std::stod(f[14 + static_cast<std::size_t>(c)]), truth[k].state->accel_bias_mps2(c));
     }
   }
   const std::vector<SensorFrame> read = read_all(*open(dir / "imu_rate"));
@@ -398,6 +399,29 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
     const Eigen::Isometry3d expected =
         frames[i].T_world_cam_gt ? *frames[i].T_world_cam_gt : frames[i].imu_truth.back().T_world_body * T_body_cam0;
     EXPECT_LT((read[i].T_world_cam_gt->matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+    // The reader gives the frames the truth at their samples back, state included.
+    ASSERT_EQ(read[i].imu_truth.size(), frames[i].imu_truth.size());
+    for (std::size_t k = 0; k < read[i].imu_truth.size(); ++k) {
+      const ImuTruth& got = read[i].imu_truth[k];
+      const ImuTruth& want = frames[i].imu_truth[k];
+      EXPECT_EQ(got.t_ns, want.t_ns);
+      EXPECT_LT((got.T_world_body.matrix() - want.T_world_body.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+      ASSERT_TRUE(got.state.has_value());
+      EXPECT_EQ(got.state->v_world_mps, want.state->v_world_mps);
+      EXPECT_EQ(got.state->gyro_bias_radps, want.state->gyro_bias_radps);
+      EXPECT_EQ(got.state->accel_bias_mps2, want.state->accel_bias_mps2);
+    }
+  }
+  // So a copy of the sequence keeps its ground truth at the IMU's rate (dataset convert).
+  write_sequence(dir / "copy", read);
+  const auto copied = csv_rows(dir / "copy" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  ASSERT_EQ(copied.size(), rows.size());
+  for (std::size_t k = 0; k < copied.size(); ++k) {
+    SCOPED_TRACE(k);
+    ASSERT_EQ(copied[k].size(), rows[k].size());
+    EXPECT_EQ(copied[k][0], rows[k][0]);
+    EXPECT_TRUE(pose_of_row(copied[k]).isApprox(pose_of_row(rows[k]), 1e-12));
+    for (std::size_t c = 8; c < rows[k].size(); ++c) EXPECT_EQ(std::stod(copied[k][c]), std::stod(rows[k][c]));
   }
 
   // Frames without their states: the pose columns alone, still at the IMU's rate.
@@ -408,12 +432,26 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
   ASSERT_EQ(pose_rows.size(), truth.size());
   for (const auto& f : pose_rows) EXPECT_EQ(f.size(), 8u);
 
-  // One frame with samples and no truth for them: the frames' own rows only.
+  // One frame with samples and no truth for them: no rows at its samples, its own row stays.
   std::vector<SensorFrame> gap = frames;
   gap[6].imu_truth.clear();
+  ASSERT_TRUE(gap[6].T_world_cam_gt.has_value());
   write_sequence(dir / "gap", gap);
-  EXPECT_EQ(csv_rows(dir / "gap" / "mav0" / "state_groundtruth_estimate0" / "data.csv").size(),
-            static_cast<std::size_t>(kFrames) - 1);
+  const auto gap_rows = csv_rows(dir / "gap" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  EXPECT_EQ(gap_rows.size(), truth.size() - gap[6].imu.size() + 1);
+  for (const auto& f : gap_rows) {
+    const TimeNs t_ns = std::stoll(f[0]);
+    EXPECT_FALSE(t_ns > gap[5].t_ns && t_ns < gap[6].t_ns) << t_ns;
+    EXPECT_EQ(f.size(), 17u);  // the states stay: every row left has one
+  }
+
+  // Truth at the samples without the IMU's state (motion capture): the pose columns alone.
+  std::vector<SensorFrame> no_state = frames;
+  no_state[4].imu_truth[1].state.reset();
+  write_sequence(dir / "no_state", no_state);
+  const auto no_state_rows = csv_rows(dir / "no_state" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  ASSERT_EQ(no_state_rows.size(), truth.size());
+  for (const auto& f : no_state_rows) EXPECT_EQ(f.size(), 8u);
 
   // Truth that does not pair with the samples is refused, naming the frame, and the frame is not written.
   for (const int fault : {0, 1}) {
@@ -425,6 +463,36 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
     for (int i = 0; i < 3; ++i) writer.write(bad[static_cast<std::size_t>(i)]);
     expect_input_error([&] { writer.write(bad[3]); }, {"frame 3", "IMU truth"});
     EXPECT_EQ(writer.frames_written(), 3u);
+  }
+}
+
+// Ground truth that starts among a frame's IMU samples: that frame gets no truth at its samples (all or
+// none), the frames before it neither, the frames after it all of theirs.
+TEST(Euroc, AFrameWithSamplesBeforeTheGroundTruthGetsNoTruthAtThem) {
+  TempDir dir;
+  const std::vector<SensorFrame> frames = frames_with_imu_truth(23);
+  write_sequence(dir.path(), frames);
+  const auto file = dir / "mav0" / "state_groundtruth_estimate0" / "data.csv";
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(file);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), frames.size() * 10 + 1);  // the header, then a row per sample
+  {
+    std::ofstream out(file, std::ios::trunc);
+    out << lines[0] << '\n';
+    for (std::size_t k = 1 + 13; k < lines.size(); ++k) out << lines[k] << '\n';  // from frame 1's 4th sample
+  }
+  const std::vector<SensorFrame> read = read_all(*open(dir.path()));
+  ASSERT_EQ(read.size(), frames.size());
+  EXPECT_TRUE(read[0].imu_truth.empty());
+  EXPECT_TRUE(read[1].imu_truth.empty());
+  EXPECT_TRUE(read[1].T_world_cam_gt.has_value());  // its own instant is within the ground truth
+  for (std::size_t i = 2; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(read[i].imu_truth.size(), read[i].imu.size());
+    EXPECT_EQ(read[i].imu_truth.front().t_ns, read[i].imu.front().t_ns);
   }
 }
 
@@ -456,7 +524,20 @@ TEST(Euroc, TheTumViLayoutHoldsTheGroundTruthInMocap0) {
     EXPECT_FALSE(from_vi[i].imu_state_gt.has_value());  // TUM-VI has no state columns
     EXPECT_EQ(cv::norm(from_vi[i].image, from_euroc[i].image, cv::NORM_INF), 0.0);
     ASSERT_EQ(from_vi[i].imu.size(), from_euroc[i].imu.size());
+    // The truth at the samples comes back from both, the state from EuRoC's columns only.
+    ASSERT_EQ(from_vi[i].imu_truth.size(), from_vi[i].imu.size());
+    ASSERT_EQ(from_euroc[i].imu_truth.size(), from_euroc[i].imu.size());
+    for (std::size_t k = 0; k < from_vi[i].imu_truth.size(); ++k) {
+      EXPECT_TRUE(from_vi[i].imu_truth[k].T_world_body.isApprox(from_euroc[i].imu_truth[k].T_world_body, 1e-15));
+      EXPECT_FALSE(from_vi[i].imu_truth[k].state.has_value());
+      EXPECT_TRUE(from_euroc[i].imu_truth[k].state.has_value());
+    }
   }
+  // A copy of the TUM-VI sequence as EuRoC keeps the IMU-rate poses, without state columns.
+  write_sequence(dir / "vi_as_euroc", from_vi);
+  const auto converted = csv_rows(dir / "vi_as_euroc" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  ASSERT_EQ(converted.size(), rows.size());
+  for (const auto& f : converted) EXPECT_EQ(f.size(), 8u);
   // No other layout is written by this writer; nothing is created for it.
   EXPECT_THROW(EurocWriter(dir / "tum", stereo_rig(), null_logger(), DatasetFormat::kTumRgbd), InvariantError);
   EXPECT_FALSE(std::filesystem::exists(dir / "tum"));

@@ -497,8 +497,8 @@ TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {
 // Frames that carry the truth at their IMU samples (as the simulator's do): groundtruth.txt has the
 // camera's pose at every sample as well as at every frame (TUM's motion capture runs faster than the
 // camera), each exact, so the frame without a pose is posed by the reader from the truth at its instant.
-// Without the body-to-camera transform, or with a frame whose samples came without truth, the frames' own
-// rows only; truth that does not pair with the samples is refused.
+// Without the body-to-camera transform the frames' own rows only; a frame whose samples came without truth
+// loses the rows at its samples (its own row stays); truth that does not pair with the samples is refused.
 TEST(TumRgbdWriter, TheTruthAtTheImuSamplesAddsGroundTruthRows) {
   TempDir dir;
   SensorRig rig = small_rig();
@@ -530,6 +530,24 @@ TEST(TumRgbdWriter, TheTruthAtTheImuSamplesAddsGroundTruthRows) {
     const Eigen::Isometry3d truth = frames[i].T_world_cam_gt ? *frames[i].T_world_cam_gt
                                                              : frames[i].imu_truth.back().T_world_body * *rig.T_body_cam0;
     EXPECT_LT((read[i].T_world_cam_gt->matrix() - truth.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+    // camera.yaml describes no IMU, so nothing says where the body is: no truth at the samples.
+    EXPECT_TRUE(read[i].imu_truth.empty());
+  }
+  // With a calibration that has the rig's T_body_cam0, the camera's poses at the samples come back as the
+  // body's, without a state (TUM's ground truth has none).
+  DatasetConfig with_rig;
+  with_rig.rig = rig;
+  const std::vector<SensorFrame> read_with_rig = read_all(*open(dir / "fast", with_rig));
+  ASSERT_EQ(read_with_rig.size(), frames.size());
+  for (std::size_t i = 0; i < read_with_rig.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(read_with_rig[i].imu_truth.size(), frames[i].imu_truth.size());
+    for (std::size_t k = 0; k < frames[i].imu_truth.size(); ++k) {
+      const ImuTruth& got = read_with_rig[i].imu_truth[k];
+      EXPECT_EQ(got.t_ns, frames[i].imu_truth[k].t_ns);
+      EXPECT_LT((got.T_world_body.matrix() - frames[i].imu_truth[k].T_world_body.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+      EXPECT_FALSE(got.state.has_value());
+    }
   }
 
   write_sequence(dir / "no_extrinsics", frames);
@@ -537,8 +555,14 @@ TEST(TumRgbdWriter, TheTruthAtTheImuSamplesAddsGroundTruthRows) {
             frames.size() - 1);
   std::vector<SensorFrame> gap = frames;
   gap[5].imu_truth.clear();
+  ASSERT_TRUE(gap[5].T_world_cam_gt.has_value());
+  ASSERT_GT(gap[5].imu.size(), 1u);
   write_sequence(dir / "gap", gap, rig);
-  EXPECT_EQ(read_trajectory(dir / "gap" / "groundtruth.txt", TrajectoryFormat::kTum).size(), frames.size() - 1);
+  const Trajectory gap_rows = read_trajectory(dir / "gap" / "groundtruth.txt", TrajectoryFormat::kTum);
+  EXPECT_EQ(gap_rows.size(), expected.size() - gap[5].imu.size() + 1);
+  for (const StampedPose& row : gap_rows) {  // nothing between frame 4 and frame 5 but frame 5's own row
+    EXPECT_FALSE(row.t_ns > gap[4].t_ns && row.t_ns < gap[5].t_ns) << row.t_ns;
+  }
   std::vector<SensorFrame> bad = frames;
   bad[4].imu_truth.front().t_ns -= 1;
   expect_input_error([&] { write_sequence(dir / "bad", bad, rig); }, {"frame 4", "IMU truth"});

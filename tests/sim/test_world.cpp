@@ -421,9 +421,10 @@ TEST(World, FramesCarryTheTruthAtEveryImuSample) {
       ASSERT_TRUE(frame.T_world_cam_gt && frame.imu_state_gt);
       if (last.t_ns == frame.t_ns) {
         EXPECT_TRUE((last.T_world_body * world.T_body_cam(r)).isApprox(*frame.T_world_cam_gt, 1e-15));
-        EXPECT_EQ(last.state.v_world_mps, frame.imu_state_gt->v_world_mps);
-        EXPECT_EQ(last.state.gyro_bias_radps, frame.imu_state_gt->gyro_bias_radps);
-        EXPECT_EQ(last.state.accel_bias_mps2, frame.imu_state_gt->accel_bias_mps2);
+        ASSERT_TRUE(last.state.has_value());
+        EXPECT_EQ(last.state->v_world_mps, frame.imu_state_gt->v_world_mps);
+        EXPECT_EQ(last.state->gyro_bias_radps, frame.imu_state_gt->gyro_bias_radps);
+        EXPECT_EQ(last.state->accel_bias_mps2, frame.imu_state_gt->accel_bias_mps2);
         ++shared_instants;
       }
       samples[r].insert(samples[r].end(), frame.imu.begin(), frame.imu.end());
@@ -453,7 +454,8 @@ TEST(World, FramesCarryTheTruthAtEveryImuSample) {
       const Eigen::Vector3d v_numeric =
           (truth[k + 1].T_world_body.translation() - truth[k - 1].T_world_body.translation()) /
           core::ns_to_seconds(truth[k + 1].t_ns - truth[k - 1].t_ns);
-      worst_velocity_mps = std::max(worst_velocity_mps, (v_numeric - truth[k].state.v_world_mps).norm());
+      ASSERT_TRUE(truth[k].state.has_value());
+      worst_velocity_mps = std::max(worst_velocity_mps, (v_numeric - truth[k].state->v_world_mps).norm());
       fastest_mps = std::max(fastest_mps, v_numeric.norm());
     }
     EXPECT_GT(largest_turn_rad, 1e-3);  // it turned between samples

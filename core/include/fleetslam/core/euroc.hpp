@@ -51,19 +51,23 @@ std::filesystem::path find_mav0(const std::filesystem::path& root);
 // searched first). Calibration: config.rig, else the sensor.yaml files. The dataset's ground truth holds
 // body poses: they become camera poses through the rig's T_body_cam0, else cam0/sensor.yaml's T_BS; with
 // neither the sequence has no ground truth (a warning says why) rather than body poses taken for the
-// camera's. A ground-truth file given in the body frame without either is an InputError.
+// camera's. A ground-truth file given in the body frame without either is an InputError. Body-pose
+// ground truth also gives the frames the truth at their IMU samples (SensorFrame::imu_truth, with
+// EuRoC's state where its file has the columns), interpolated within max_groundtruth_gap_s; a frame with
+// a sample outside the ground truth gets none.
 std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, DatasetFormat format,
                                         const DatasetConfig& config, Logger logger);
 
 // Writes frames as a EuRoC (or TUM-VI) mav0 folder under root: cam0/ (and cam1/ for stereo frames) with
 // data.csv, data/<t_ns>.png and sensor.yaml; imu0/ when the rig has an IMU; body.yaml; and the body
 // poses (body = IMU frame) when frames carry poses: EuRoC's state_groundtruth_estimate0/data.csv, with
-// EuRoC's velocity and bias columns when the rig has an IMU and every posed frame brought its state
-// (SensorFrame::imu_state_gt, as the simulator's frames do), the 8 pose columns otherwise; TUM-VI's
-// mocap0/data.csv, the 8 pose columns. When the rig has an IMU and every frame with IMU samples brought
-// their truth (SensorFrame::imu_truth, as the simulator's frames do), the ground truth has a row at every
-// IMU sample as well as at every posed frame (EuRoC's runs at the IMU's rate): the rows merged in time, a
-// frame's own where both have an instant.
+// EuRoC's velocity and bias columns when the rig has an IMU and every posed frame and every truth at an
+// IMU sample brought its state (SensorFrame::imu_state_gt, ImuTruth::state, as the simulator's frames
+// and EuRoC's own ground truth do), the 8 pose columns otherwise; TUM-VI's mocap0/data.csv, the 8 pose
+// columns. When the rig has an IMU, the frames that brought the truth at their IMU samples
+// (SensorFrame::imu_truth: the simulator's, and those of a sequence read with body-pose ground truth)
+// add a row at each of those samples (EuRoC's ground truth runs at the IMU's rate): the rows merged in
+// time, a frame's own where both have an instant.
 // Colour images are converted to gray; depth maps are dropped (with one warning). A rig with an IMU
 // whose frames brought no sample gets no imu0/ (with a warning): the reader refuses an empty IMU list.
 // A frame is checked whole before any of it is written. The sequence is written to root + ".partial"

@@ -29,13 +29,14 @@ struct ImuStateGt {
   Eigen::Vector3d accel_bias_mps2 = Eigen::Vector3d::Zero();
 };
 
-// The truth at one IMU sample, from a source that knows it (the simulator): the pose of the body (IMU)
-// frame in the world and the IMU's state, at the sample's t_ns. EuRoC's ground truth runs at the IMU's
-// rate; these let a writer do the same.
+// The truth at one IMU sample, from a source that knows it (the simulator, or a recorded sequence's
+// ground truth in the body frame): the pose of the body (IMU) frame in the world and, where known, the
+// IMU's state, at the sample's t_ns. EuRoC's ground truth runs at the IMU's rate; these let a writer do
+// the same.
 struct ImuTruth {
   TimeNs t_ns = 0;
   Eigen::Isometry3d T_world_body = Eigen::Isometry3d::Identity();
-  ImuStateGt state;
+  std::optional<ImuStateGt> state;  // nullopt where the source knows only poses (TUM-VI's motion capture)
 };
 
 // One camera tick of one robot. Images are owned by the frame (cv::Mat is reference-counted; sources
@@ -53,7 +54,8 @@ struct SensorFrame {
 
   std::optional<Eigen::Isometry3d> T_world_cam_gt;  // ground-truth pose of the (left) camera
   std::optional<ImuStateGt> imu_state_gt;           // with T_world_cam_gt, from a source that knows it
-  // Empty, or one entry per sample of `imu`, at the same t_ns (a source that knows the truth between frames).
+  // Empty, or one entry per sample of `imu`, at the same t_ns (a source that knows the truth between
+  // frames; a recorded sequence's frames whose samples are not all within its ground truth leave it empty).
   std::vector<ImuTruth> imu_truth;
 
   std::string image_path;  // where the image came from, for messages (empty for rendered frames)

@@ -44,8 +44,8 @@ std::unique_ptr<FrameSource> open_tum_rgbd(const std::filesystem::path& root, co
 
 // Writes frames as a TUM RGB-D folder: rgb/ and depth/ PNGs (16-bit, raw = round(depth_m * scale)),
 // rgb.txt, depth.txt, groundtruth.txt (frames with poses; with the camera's poses at the IMU samples
-// too when every frame with samples brought their truth, SensorFrame::imu_truth, and the rig has
-// T_body_cam0), accelerometer.txt (frames with IMU samples), camera.yaml. Every frame needs an image and a depth map. The sequence is written to
+// of the frames that brought their truth too, SensorFrame::imu_truth, when the rig has T_body_cam0),
+// accelerometer.txt (frames with IMU samples), camera.yaml. Every frame needs an image and a depth map. The sequence is written to
 // root + ".partial" and renamed to root by close(); a writer destroyed without close() (a write that
 // failed) leaves the .partial folder and says so.
 class TumRgbdWriter final : public FrameSink {
