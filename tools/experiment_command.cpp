@@ -189,8 +189,8 @@ void add_experiment_command(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_option("--synthetic-duration", o->synthetic_duration_s, "Simulated seconds per scenario")->capture_default_str();
   cmd->add_flag("--rerender", o->rerender,
-                "Render the scenarios again even when OUT/synthetic has them (the reuse check sees the scenario and "
-                "scene files only, not textures or the simulator's code)");
+                "Render the scenarios again even when OUT/synthetic has them (the reuse check sees the scenario, the "
+                "scene and every file it refers to, and this program, but not the shared libraries it runs with)");
   cmd->add_option("--frames", o->frames, "Use at most this many frames of each sequence (-1: all)")->capture_default_str();
   cmd->add_option("--repetitions", o->repetitions, "matching: timed repetitions per pair and matcher")
       ->capture_default_str()

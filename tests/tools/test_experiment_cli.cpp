@@ -7,12 +7,14 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli_test_util.hpp"
 #include "fleetslam/experiments/results_document.hpp"
+#include "fleetslam/experiments/sequences.hpp"
 
 namespace fleetslam {
 namespace {
@@ -85,6 +87,52 @@ class ExperimentCli : public ::testing::Test {
   }
   fs::path dir_;
 };
+
+void write_file(const fs::path& file, const std::string& text) {
+  fs::create_directories(file.parent_path());
+  std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
+}
+
+// The key that decides whether a rendering is reused sees every input of the rendering that lives in a
+// file: the scenario, the scene and the files it refers to (through an included file too), the duration,
+// and the program that renders.
+TEST(RenderingKey, ChangesWithEveryFileTheRenderingReads) {
+  const fs::path dir = test::fresh_test_dir("fleetslam_test_rendering_key");
+  const fs::path scenario = dir / "run.yaml";
+  const fs::path scene = dir / "scene" / "scene.xml";
+  const fs::path program = dir / "bin" / "fleetslam";
+  write_file(scenario, "scene: scene/scene.xml\n");
+  write_file(scene, "<mujoco><include file=\"parts.xml\"/><asset><texture name=\"t\" file=\"../textures/wall.png\"/>"
+                    "</asset></mujoco>\n");
+  write_file(dir / "scene" / "parts.xml", "<mujoco><asset><mesh file=\"meshes/chair.obj\"/></asset></mujoco>\n");
+  write_file(dir / "textures" / "wall.png", "wall v1");
+  write_file(dir / "scene" / "meshes" / "chair.obj", "chair v1");
+  write_file(program, "program v1");
+  const auto key = [&](double duration_s = 10.0) { return experiments::rendering_key(scenario, scene, duration_s, program); };
+  const std::optional<std::string> first = key();
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(key(), first);
+  EXPECT_NE(key(5.0), first);
+  const auto changes_key = [&](const fs::path& file, const std::string& was, const std::string& now) {
+    SCOPED_TRACE(file.string());
+    write_file(file, now);
+    EXPECT_NE(key(), first);
+    write_file(file, was);
+    EXPECT_EQ(key(), first);
+  };
+  changes_key(dir / "textures" / "wall.png", "wall v1", "wall v2");
+  changes_key(dir / "scene" / "meshes" / "chair.obj", "chair v1", "chair v2");  // referred to by the include
+  changes_key(program, "program v1", "program v2");
+  changes_key(scenario, "scene: scene/scene.xml\n", "scene: scene/scene.xml\nduration_s: 3\n");
+  fs::remove(dir / "textures" / "wall.png");
+  const std::optional<std::string> without_texture = key();
+  ASSERT_TRUE(without_texture.has_value());
+  EXPECT_NE(without_texture, first);
+  EXPECT_NE(without_texture->find("wall.png: missing"), std::string::npos) << *without_texture;
+  // Without a readable program there is no key: nothing is reused.
+  EXPECT_FALSE(experiments::rendering_key(scenario, scene, 10.0, dir / "bin" / "absent").has_value());
+  fs::remove_all(dir);
+}
 
 TEST_F(ExperimentCli, MatchingWritesTable1) {
   const fs::path out = dir_ / "run";

@@ -1,9 +1,15 @@
 #include "fleetslam/experiments/sequences.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <regex>
 #include <sstream>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -42,11 +48,64 @@ void require_file(const fs::path& file, const std::string& what) {
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), what + ": no such file");
 }
 
-// What identifies a rendering: the scenario's text, its scene's text and the duration.
-std::string rendering_key(const fs::path& scenario, const sim::ScenarioConfig& world, double duration_s) {
-  return "scenario: " + fs::absolute(scenario).lexically_normal().string() + "\nduration_s: " + fixed(duration_s, 3) +
-         "\n--- scenario\n" + read_whole(scenario) + "\n--- scene\n" + read_whole(world.scene_path()) + "\n";
+// FNV-1a over a file's bytes: a fingerprint that notices a change, not a cryptographic hash (no packaged
+// hash is at hand in the project's dependencies, and this needs no more). nullopt when unreadable.
+std::optional<std::uint64_t> file_fingerprint(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::uint64_t hash = 14695981039346656037ULL;
+  std::vector<char> buffer(std::size_t{1} << 16);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      hash ^= static_cast<unsigned char>(buffer[static_cast<std::size_t>(i)]);
+      hash *= 1099511628211ULL;
+    }
+  }
+  if (in.bad()) return std::nullopt;
+  return hash;
 }
+
+std::string fingerprint_text(const fs::path& file) {
+  const std::optional<std::uint64_t> hash = file_fingerprint(file);
+  if (!hash) return "missing";
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(*hash));
+  return text;
+}
+
+// The files an MJCF file refers to (file="..." attributes), resolved against its folder, and theirs in
+// turn for MJCF files, each once, in the order met.
+void referenced_files(const fs::path& mjcf, std::vector<fs::path>& files) {
+  static const std::regex kFileAttribute(R"re(\bfile\s*=\s*"([^"]*)")re");
+  const std::string text = read_whole(mjcf);
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), kFileAttribute); it != std::sregex_iterator(); ++it) {
+    fs::path file((*it)[1].str());
+    if (file.is_relative()) file = mjcf.parent_path() / file;
+    file = file.lexically_normal();
+    if (std::find(files.begin(), files.end(), file) != files.end()) continue;
+    files.push_back(file);
+    if (file.extension() == ".xml") referenced_files(file, files);
+  }
+}
+
+}  // namespace
+
+std::optional<std::string> rendering_key(const fs::path& scenario, const fs::path& scene, double duration_s,
+                                         const fs::path& program) {
+  const std::optional<std::uint64_t> program_hash = file_fingerprint(program);
+  if (!program_hash) return std::nullopt;
+  std::string key = "scenario: " + fs::absolute(scenario).lexically_normal().string() +
+                    "\nduration_s: " + fixed(duration_s, 3) + "\nprogram: " + fingerprint_text(program) +
+                    "\n--- scenario\n" + read_whole(scenario) + "\n--- scene\n" + read_whole(scene) +
+                    "\n--- files the scene refers to\n";
+  std::vector<fs::path> files;
+  referenced_files(scene, files);
+  for (const fs::path& file : files) key += file.string() + ": " + fingerprint_text(file) + "\n";
+  return key;
+}
+
+namespace {
 
 core::SensorRig tum_rig(core::SensorRig rig) {
   rig.mode = core::SensorMode::kRgbd;
@@ -148,15 +207,18 @@ std::vector<SequenceSpec> render_synthetic(const DataSourcesConfig& config, cons
     world.duration_s = config.synthetic_duration_s;
     const std::string stem = scenario_file.stem().string();
     const fs::path dir = config.synthetic_dir / (stem + "_" + fixed(config.synthetic_duration_s, 1) + "s");
-    const std::string key = rendering_key(scenario_file, world, config.synthetic_duration_s);
+    const std::optional<std::string> key =
+        rendering_key(scenario_file, world.scene_path(), config.synthetic_duration_s, "/proc/self/exe");
+    if (!key) logger->info("this program's executable cannot be read: renderings are made anew, not reused");
     std::error_code ec;
-    if (config.rerender || !(fs::exists(dir / kRenderedFile, ec) && read_whole(dir / kRenderedFile) == key)) {
+    if (config.rerender || !key ||
+        !(fs::exists(dir / kRenderedFile, ec) && read_whole(dir / kRenderedFile) == *key)) {
       logger->info("rendering {} ({} s) into {}", scenario_file.string(), config.synthetic_duration_s, dir.string());
       fs::remove_all(dir, ec);
       fs::create_directories(dir, ec);
       if (ec) throw InputError(dir.string(), "cannot create the folder: " + ec.message());
       render_scenario(world, dir, logger);
-      write_text(dir / kRenderedFile, key);
+      write_text(dir / kRenderedFile, key ? *key : std::string("no key: not to be reused\n"));
     } else {
       logger->info("reusing the rendering of {} in {}", scenario_file.string(), dir.string());
     }

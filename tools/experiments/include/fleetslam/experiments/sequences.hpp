@@ -38,8 +38,8 @@ struct DataSourcesConfig {
   std::vector<std::filesystem::path> scenarios;  // run scenarios to render
   double synthetic_duration_s = 10.0;     // simulated seconds per scenario
   std::filesystem::path synthetic_dir;    // where rendered sequences go (reused when already rendered the same way)
-  // Render even when a rendering of the same scenario, scene file and duration is there: the reuse check
-  // does not see textures, MJCF includes or the simulator's code.
+  // Render even when a rendering with the same key (rendering_key) is there: the reuse check does not see
+  // the shared libraries (MuJoCo, OSMesa) the program runs with.
   bool rerender = false;
 };
 
@@ -49,10 +49,18 @@ void check_data_sources(const DataSourcesConfig& config);
 // The real sequences of `config` (TUM first, then EuRoC).
 std::vector<SequenceSpec> real_sequences(const DataSourcesConfig& config);
 
+// What identifies a rendering: the scenario's path and text, the duration, the scene's text, the content
+// of every file the scene refers to (file="..." attributes, relative to the file naming them: textures,
+// meshes, included MJCF, whose own references are followed; a missing one as missing) and the content of
+// `program`, the executable that renders (a rebuilt simulator renders anew). nullopt when `program`
+// cannot be read.
+std::optional<std::string> rendering_key(const std::filesystem::path& scenario, const std::filesystem::path& scene,
+                                         double duration_s, const std::filesystem::path& program);
+
 // Renders each scenario (world only, like `fleetslam generate --format tum`; robots without a depth camera are
 // left out) into synthetic_dir/<scenario stem>_<duration>s/<robot>/ and returns one sequence per robot, named
-// "<stem>/<robot>". A folder rendered before from the same scenario text and duration is reused (its
-// rendered.txt records both).
+// "<stem>/<robot>". A folder rendered before with the same rendering_key (this program: /proc/self/exe)
+// is reused (its rendered.txt records the key); without a key nothing is reused.
 std::vector<SequenceSpec> render_synthetic(const DataSourcesConfig& config, const core::Logger& logger);
 
 // Opens frames [start, stop) of a sequence (stop -1: to the end), images loaded, no IMU.
