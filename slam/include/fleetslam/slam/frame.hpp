@@ -141,11 +141,12 @@ class FeatureGrid {
   // visit_area in two steps, for a caller with many queries: prepare_area finds a query's cells (false
   // where visit_area would visit nothing) and visit_prepared visits its features as visit_area does. A
   // caller that prepares all its queries first keeps the arithmetic of finding the cells apart from the
-  // loads of visiting them.
+  // loads of visiting them. An Area holds cell indices of the grid that prepared it: visit it with that
+  // grid only (unchanged since), never with another.
   struct Area {
-    double u = 0.0, v = 0.0, r2 = 0.0;
-    int lowest = 0, highest = 0;
-    int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+    double u = 0.0, v = 0.0, r2 = 0.0;   // centre and squared radius (px)
+    int lowest = 0, highest = 0;          // level window (int limits where unbounded)
+    int x0 = 0, x1 = 0, y0 = 0, y1 = 0;   // cells x0..x1 by y0..y1
   };
   bool prepare_area(double u, double v, double radius_px, int min_level, int max_level, Area& area) const;
   template <class Visit>
