@@ -100,6 +100,7 @@ nlohmann::json info_json(const core::FrameSource& source) {
           {"frames_with_groundtruth", info.frames_with_groundtruth},
           {"imu_file", info.imu_file},
           {"imu_samples", info.imu_samples},
+          {"imu_samples_with_groundtruth", info.imu_samples_with_groundtruth},
           {"imu_rate_hz", info.imu_rate_hz},
           {"accelerometer_only", info.accelerometer_only}};
 }
@@ -137,7 +138,11 @@ void print_info(const nlohmann::json& j, std::ostream& out) {
   out << "imu:          "
       << (imu.empty() ? std::string("none") : imu + " (" + j["imu_samples"].dump() + " samples, " +
                                                   fixed(j["imu_rate_hz"].get<double>(), 1) + " Hz" +
-                                                  (j["accelerometer_only"].get<bool>() ? ", accelerometer only" : "") + ")")
+                                                  (j["accelerometer_only"].get<bool>() ? ", accelerometer only" : "") + ")" +
+                                                  (j["imu_samples_with_groundtruth"].get<std::size_t>() > 0
+                                                       ? ", " + j["imu_samples_with_groundtruth"].dump() +
+                                                             " with ground truth"
+                                                       : std::string()))
       << "\n";
   for (const nlohmann::json& row : j["skipped_rows"]) {
     out << "skipped:      " << row["where"].get<std::string>() << ": " << row["why"].get<std::string>() << "\n";

@@ -113,6 +113,7 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
       ImuTruth truth{t_ns, pose_at(trajectory, *at) * *T_file_body, std::nullopt};
       if (states) truth.state = state_at(read.columns_after_pose, *at);
       sequence.imu_truth[k] = truth;
+      ++sequence.info.imu_samples_with_groundtruth;
     }
   }
   if (covered == 0 && !sequence.entries.empty()) {

@@ -390,6 +390,7 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
       EXPECT_EQ(std::stod(f[14 + static_cast<std::size_t>(c)]), truth[k].state->accel_bias_mps2(c));
     }
   }
+  EXPECT_EQ(open(dir / "imu_rate")->info().imu_samples_with_groundtruth, truth.size());
   const std::vector<SensorFrame> read = read_all(*open(dir / "imu_rate"));
   ASSERT_EQ(read.size(), frames.size());
   const Eigen::Isometry3d T_body_cam0 = *stereo_rig().T_body_cam0;
@@ -484,6 +485,7 @@ TEST(Euroc, AFrameWithSamplesBeforeTheGroundTruthGetsNoTruthAtThem) {
     out << lines[0] << '\n';
     for (std::size_t k = 1 + 13; k < lines.size(); ++k) out << lines[k] << '\n';  // from frame 1's 4th sample
   }
+  EXPECT_EQ(open(dir.path())->info().imu_samples_with_groundtruth, frames.size() * 10 - 13);
   const std::vector<SensorFrame> read = read_all(*open(dir.path()));
   ASSERT_EQ(read.size(), frames.size());
   EXPECT_TRUE(read[0].imu_truth.empty());

@@ -321,6 +321,24 @@ TEST_F(GenerateCli, EurocSequencesMatchTheSimulator) {
     }
     expect_truth_at_every_instant(root / "mav0" / "state_groundtruth_estimate0" / "data.csv", simulated.frames[i],
                                   *simulated.rigs[i].T_body_cam0, 17);
+    // Read back, the frames carry the simulator's truth at their IMU samples again, state included.
+    std::size_t samples = 0;
+    for (std::size_t k = 0; k < read.size(); ++k) {
+      SCOPED_TRACE("frame " + std::to_string(k));
+      const std::vector<core::ImuTruth>& want = simulated.frames[i][k].imu_truth;
+      ASSERT_EQ(read[k].imu_truth.size(), want.size());
+      for (std::size_t j = 0; j < want.size(); ++j) {
+        EXPECT_EQ(read[k].imu_truth[j].t_ns, want[j].t_ns);
+        expect_same_pose(read[k].imu_truth[j].T_world_body, want[j].T_world_body);
+        ASSERT_TRUE(read[k].imu_truth[j].state.has_value() && want[j].state.has_value());
+        EXPECT_EQ(read[k].imu_truth[j].state->v_world_mps, want[j].state->v_world_mps);
+        EXPECT_EQ(read[k].imu_truth[j].state->accel_bias_mps2, want[j].state->accel_bias_mps2);
+      }
+      samples += want.size();
+    }
+    const Result info = run("dataset info " + quoted(root));
+    ASSERT_EQ(info.exit_code, 0) << info.err;
+    EXPECT_NE(info.out.find(std::to_string(samples) + " with ground truth"), std::string::npos) << info.out;
   }
 }
 
