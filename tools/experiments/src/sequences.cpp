@@ -66,8 +66,7 @@ std::optional<std::uint64_t> file_fingerprint(const fs::path& file) {
   return hash;
 }
 
-std::string fingerprint_text(const fs::path& file) {
-  const std::optional<std::uint64_t> hash = file_fingerprint(file);
+std::string fingerprint_text(const std::optional<std::uint64_t>& hash) {
   if (!hash) return "missing";
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(*hash));
@@ -96,12 +95,12 @@ std::optional<std::string> rendering_key(const fs::path& scenario, const fs::pat
   const std::optional<std::uint64_t> program_hash = file_fingerprint(program);
   if (!program_hash) return std::nullopt;
   std::string key = "scenario: " + fs::absolute(scenario).lexically_normal().string() +
-                    "\nduration_s: " + fixed(duration_s, 3) + "\nprogram: " + fingerprint_text(program) +
+                    "\nduration_s: " + fixed(duration_s, 3) + "\nprogram: " + fingerprint_text(program_hash) +
                     "\n--- scenario\n" + read_whole(scenario) + "\n--- scene\n" + read_whole(scene) +
                     "\n--- files the scene refers to\n";
   std::vector<fs::path> files;
   referenced_files(scene, files);
-  for (const fs::path& file : files) key += file.string() + ": " + fingerprint_text(file) + "\n";
+  for (const fs::path& file : files) key += file.string() + ": " + fingerprint_text(file_fingerprint(file)) + "\n";
   return key;
 }
 
