@@ -96,13 +96,13 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
     if (states) entry.imu_state_gt = state_at(read.columns_after_pose, *at);
     ++covered;
   }
-  // The truth at the IMU samples, in the body (IMU) frame: the file's body poses, or its camera poses
-  // moved to the body (T_world_body = T_world_cam * T_body_cam0^-1).
-  std::optional<Eigen::Isometry3d> T_file_body;  // the body in the frame the file's poses are of
-  if (T_body_cam) {
-    T_file_body = Eigen::Isometry3d::Identity();
-  } else if (rig_T_body_cam0) {
-    T_file_body = rig_T_body_cam0->inverse();
+  // The truth at the IMU samples, in the rig's body frame (the IMU): the file's poses moved through cam0
+  // to it, T_world_body = T_world_file * T_file_cam0 * T_body_cam0^-1. The file's body need not be the
+  // IMU (EuRoC's B is wherever imu0/sensor.yaml's T_BS says the IMU is not); without the rig's body
+  // there is no truth at the samples.
+  std::optional<Eigen::Isometry3d> T_file_body;  // the rig's body in the frame the file's poses are of
+  if (rig_T_body_cam0) {
+    T_file_body = (T_body_cam ? *T_body_cam : Eigen::Isometry3d::Identity()) * rig_T_body_cam0->inverse();
   }
   if (T_file_body && !sequence.imu.empty()) {
     sequence.imu_truth.assign(sequence.imu.size(), std::nullopt);

@@ -102,9 +102,10 @@ struct RecordedSequence {
 };
 
 // Ground truth for the entries: reads `file` and gives each entry the pose at its stamp, composed with
-// T_body_cam when the file holds body poses. Then each IMU sample gets the truth at its stamp: the body's
-// pose (the file's, or its camera pose moved to the body through rig_T_body_cam0 when the file holds
-// camera poses; none without either) and the IMU's state where the file has EuRoC's state columns.
+// T_body_cam (the file's body to cam0) when the file holds body poses. Then each IMU sample gets the
+// truth at its stamp: the pose of the sequence rig's body (rig_T_body_cam0: the IMU, which may differ from
+// the file's body; no truth at the samples without it) and the IMU's state where the file has EuRoC's
+// state columns.
 // Fills the info fields about ground truth. A file that gives
 // no frame a pose (another sequence's, or stamps on another clock) is an InputError naming both time
 // spans when the user gave it (`given`), a warning when it is the dataset's own.

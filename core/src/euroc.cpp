@@ -123,7 +123,8 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
                                                 "or Tbc) and there is no cam0/sensor.yaml with T_BS");
     }
     attach_groundtruth(sequence, config.groundtruth_file,
-                       config.groundtruth_in_body_frame ? T_body_cam0 : std::nullopt, T_body_cam0, config, true, logger);
+                       config.groundtruth_in_body_frame ? T_body_cam0 : std::nullopt, sequence.rig.T_body_cam0, config,
+                       true, logger);
     return;
   }
   std::vector<std::filesystem::path> candidates = {mav0 / "state_groundtruth_estimate0" / "data.csv",
@@ -138,7 +139,7 @@ void euroc_groundtruth(RecordedSequence& sequence, const std::filesystem::path& 
                    file.string());
       return;
     }
-    attach_groundtruth(sequence, file, T_body_cam0, T_body_cam0, config, false, logger);
+    attach_groundtruth(sequence, file, T_body_cam0, sequence.rig.T_body_cam0, config, false, logger);
     return;
   }
   logger->info("{}: no ground truth (no state_groundtruth_estimate0/ or mocap0/ data.csv; a ground-truth "

@@ -467,6 +467,52 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
   }
 }
 
+// EuRoC's body frame B need not be the IMU: imu0/sensor.yaml's T_BS places the IMU in B. The body poses
+// of the ground truth are B's; the rig's body is the IMU. The frames' camera poses go through cam0's T_BS,
+// the truth at the IMU samples is the IMU's pose, and both agree through the rig at a frame's instant.
+TEST(Euroc, TheTruthAtTheImuSamplesIsTheImusPoseWhenTheBodyFrameIsNotTheImu) {
+  TempDir dir;
+  const std::vector<SensorFrame> frames = frames_with_imu_truth(24);
+  write_sequence(dir.path(), frames);
+  // The written body poses are now B's, with the IMU 0.2 m above B and turned about z.
+  Eigen::Isometry3d T_B_imu = Eigen::Isometry3d::Identity();
+  T_B_imu.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_B_imu.translation() = Eigen::Vector3d(0.01, -0.02, 0.2);
+  const auto imu_yaml = dir / "mav0" / "imu0" / "sensor.yaml";
+  std::string yaml = test::read_file(imu_yaml);
+  const std::size_t from = yaml.find("  data: [");
+  ASSERT_NE(from, std::string::npos);
+  const std::size_t to = yaml.find(']', from);
+  std::ostringstream data;
+  data.precision(17);
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) data << (r + c == 0 ? "" : ", ") << T_B_imu.matrix()(r, c);
+  }
+  yaml.replace(from, to - from, "  data: [" + data.str());
+  test::write_file(imu_yaml, yaml);
+
+  const std::unique_ptr<FrameSource> source = open(dir.path());
+  const Eigen::Isometry3d T_B_cam0 = *stereo_rig().T_body_cam0;  // cam0's T_BS as written
+  ASSERT_TRUE(source->rig().T_body_cam0.has_value());
+  const Eigen::Isometry3d T_imu_cam0 = *source->rig().T_body_cam0;
+  EXPECT_LT((T_imu_cam0.matrix() - (T_B_imu.inverse() * T_B_cam0).matrix()).cwiseAbs().maxCoeff(), 1e-12);
+  const std::vector<SensorFrame> read = read_all(*source);
+  ASSERT_EQ(read.size(), frames.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(read[i].imu_truth.size(), frames[i].imu_truth.size());
+    for (std::size_t k = 0; k < read[i].imu_truth.size(); ++k) {
+      const Eigen::Isometry3d want = frames[i].imu_truth[k].T_world_body * T_B_imu;  // T_world_B * T_B_imu
+      EXPECT_LT((read[i].imu_truth[k].T_world_body.matrix() - want.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+    }
+    ASSERT_TRUE(read[i].T_world_cam_gt.has_value());
+    const ImuTruth& at_frame = read[i].imu_truth.back();
+    ASSERT_EQ(at_frame.t_ns, read[i].t_ns);
+    EXPECT_LT((read[i].T_world_cam_gt->matrix() - (at_frame.T_world_body * T_imu_cam0).matrix()).cwiseAbs().maxCoeff(),
+              1e-9);
+  }
+}
+
 // Ground truth that starts among a frame's IMU samples: that frame gets no truth at its samples (all or
 // none), the frames before it neither, the frames after it all of theirs.
 TEST(Euroc, AFrameWithSamplesBeforeTheGroundTruthGetsNoTruthAtThem) {
