@@ -122,11 +122,16 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image) {
 }
 
 void check_imu_truth_pairs(const SensorFrame& frame, const std::string& frame_name) {
-  const bool pairs = frame.imu_truth.empty() ||
-                     (frame.imu_truth.size() == frame.imu.size() &&
-                      std::equal(frame.imu.begin(), frame.imu.end(), frame.imu_truth.begin(),
-                                 [](const ImuSample& s, const ImuTruth& t) { return s.t_ns == t.t_ns; }));
-  if (!pairs) throw InputError(frame_name, "its IMU truth is not one entry per IMU sample at the sample's time");
+  // The truths' stamps must be a subsequence of the samples' (both in time order).
+  auto sample = frame.imu.begin();
+  for (const ImuTruth& truth : frame.imu_truth) {
+    while (sample != frame.imu.end() && sample->t_ns != truth.t_ns) ++sample;
+    if (sample == frame.imu.end()) {
+      throw InputError(frame_name, "its IMU truth at " + std::to_string(truth.t_ns) +
+                                       " ns is not at one of its IMU samples (in time order, one truth per sample)");
+    }
+    ++sample;
+  }
 }
 
 std::vector<MergedRow> merge_in_time(const std::vector<TimeNs>& first, const std::vector<TimeNs>& second) {

@@ -95,7 +95,7 @@ struct RecordedSequence {
   DatasetInfo info;
   std::vector<FrameEntry> entries;  // every usable frame, before selection, in time order
   std::vector<ImuSample> imu;       // every sample of the IMU file, in time order
-  // Empty, or one entry per sample of `imu`: the truth there where the ground truth knows it
+  // Empty, or one entry per sample of `imu`: the truth there where the ground truth knows it, nullopt elsewhere
   // (attach_groundtruth, from body poses).
   std::vector<std::optional<ImuTruth>> imu_truth;
   ImageKind image_kind = ImageKind::kColour;
@@ -162,8 +162,8 @@ void write_image(const std::filesystem::path& file, const cv::Mat& image);
 
 Logger or_null(Logger logger);
 
-// Writers' check: a frame's imu_truth is empty or one entry per IMU sample at the sample's t_ns;
-// InputError naming the frame (`frame_name`) otherwise.
+// Writers' check: each entry of a frame's imu_truth is at one of its IMU samples' t_ns, in time order,
+// at most one per sample; InputError naming the frame (`frame_name`) otherwise.
 void check_imu_truth_pairs(const SensorFrame& frame, const std::string& frame_name);
 
 // One row of two increasing stamp lists merged in time order: from `first` (else `second`), at `index`.

@@ -146,8 +146,8 @@ class RecordedSource final : public FrameSource {
     }
   }
 
-  // The IMU samples with t in (last frame handed out, t_ns] into frame.imu, and their truth into
-  // frame.imu_truth when the sequence knows it at every one of them (SensorFrame: all or none).
+  // The IMU samples with t in (last frame handed out, t_ns] into frame.imu, and the truth at those of them
+  // where the sequence knows it into frame.imu_truth.
   void take_imu_until(TimeNs t_ns, SensorFrame& frame) {
     const auto by_time = [](TimeNs t, const ImuSample& s) { return t < s.t_ns; };
     const auto begin = std::upper_bound(seq_.imu.begin(), seq_.imu.end(), last_t_ns_, by_time);
@@ -157,9 +157,9 @@ class RecordedSource final : public FrameSource {
     if (seq_.imu_truth.empty() || begin == end) return;
     const auto first = seq_.imu_truth.begin() + (begin - seq_.imu.begin());
     const auto last = seq_.imu_truth.begin() + (end - seq_.imu.begin());
-    if (!std::all_of(first, last, [](const std::optional<ImuTruth>& truth) { return truth.has_value(); })) return;
-    frame.imu_truth.reserve(frame.imu.size());
-    for (auto it = first; it != last; ++it) frame.imu_truth.push_back(**it);
+    for (auto it = first; it != last; ++it) {
+      if (*it) frame.imu_truth.push_back(**it);
+    }
   }
 
   RecordedSequence seq_;

@@ -454,12 +454,25 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsWrittenAtTheImuRate) {
   ASSERT_EQ(no_state_rows.size(), truth.size());
   for (const auto& f : no_state_rows) EXPECT_EQ(f.size(), 8u);
 
-  // Truth that does not pair with the samples is refused, naming the frame, and the frame is not written.
-  for (const int fault : {0, 1}) {
+  // Truth at some of a frame's samples only (a drop-out): rows at those, none at the others.
+  std::vector<SensorFrame> part = frames;
+  part[3].imu_truth.erase(part[3].imu_truth.begin() + 2, part[3].imu_truth.begin() + 5);
+  write_sequence(dir / "part", part);
+  const auto part_rows = csv_rows(dir / "part" / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  ASSERT_EQ(part_rows.size(), truth.size() - 3);
+  for (const auto& f : part_rows) {
+    const TimeNs t_ns = std::stoll(f[0]);
+    EXPECT_FALSE(t_ns >= frames[3].imu[2].t_ns && t_ns <= frames[3].imu[4].t_ns) << t_ns;
+  }
+
+  // Truth that is not at the frame's samples, in their order, is refused, naming the frame, and the frame
+  // is not written: off a sample's stamp, out of order, twice at one sample.
+  for (const int fault : {0, 1, 2}) {
     SCOPED_TRACE(fault);
     std::vector<SensorFrame> bad = frames;
-    if (fault == 0) bad[3].imu_truth.pop_back();
-    if (fault == 1) bad[3].imu_truth[2].t_ns += 1;
+    if (fault == 0) bad[3].imu_truth[2].t_ns += 1;
+    if (fault == 1) std::swap(bad[3].imu_truth[2], bad[3].imu_truth[3]);
+    if (fault == 2) bad[3].imu_truth[3] = bad[3].imu_truth[2];
     EurocWriter writer(dir / ("bad" + std::to_string(fault)), stereo_rig(), null_logger());
     for (int i = 0; i < 3; ++i) writer.write(bad[static_cast<std::size_t>(i)]);
     expect_input_error([&] { writer.write(bad[3]); }, {"frame 3", "IMU truth"});
@@ -513,9 +526,9 @@ TEST(Euroc, TheTruthAtTheImuSamplesIsTheImusPoseWhenTheBodyFrameIsNotTheImu) {
   }
 }
 
-// Ground truth that starts among a frame's IMU samples: that frame gets no truth at its samples (all or
-// none), the frames before it neither, the frames after it all of theirs.
-TEST(Euroc, AFrameWithSamplesBeforeTheGroundTruthGetsNoTruthAtThem) {
+// Ground truth that starts among a frame's IMU samples: that frame gets the truth at its samples from
+// there on, the frames before it none, the frames after it all of theirs.
+TEST(Euroc, SamplesBeforeTheGroundTruthGetNoTruth) {
   TempDir dir;
   const std::vector<SensorFrame> frames = frames_with_imu_truth(23);
   write_sequence(dir.path(), frames);
@@ -535,13 +548,58 @@ TEST(Euroc, AFrameWithSamplesBeforeTheGroundTruthGetsNoTruthAtThem) {
   const std::vector<SensorFrame> read = read_all(*open(dir.path()));
   ASSERT_EQ(read.size(), frames.size());
   EXPECT_TRUE(read[0].imu_truth.empty());
-  EXPECT_TRUE(read[1].imu_truth.empty());
+  ASSERT_EQ(read[1].imu_truth.size(), read[1].imu.size() - 3);
+  for (std::size_t k = 0; k < read[1].imu_truth.size(); ++k) {
+    EXPECT_EQ(read[1].imu_truth[k].t_ns, read[1].imu[k + 3].t_ns);
+    EXPECT_LT((read[1].imu_truth[k].T_world_body.matrix() - frames[1].imu_truth[k + 3].T_world_body.matrix())
+                  .cwiseAbs()
+                  .maxCoeff(),
+              1e-9);
+  }
   EXPECT_TRUE(read[1].T_world_cam_gt.has_value());  // its own instant is within the ground truth
   for (std::size_t i = 2; i < read.size(); ++i) {
     SCOPED_TRACE(i);
     ASSERT_EQ(read[i].imu_truth.size(), read[i].imu.size());
     EXPECT_EQ(read[i].imu_truth.front().t_ns, read[i].imu.front().t_ns);
   }
+}
+
+// A drop-out in the ground truth (45 ms without poses, more than max_groundtruth_gap_s) within one frame's
+// samples: that frame keeps the truth at its samples on either side, the samples in it get none, and a
+// copy of the sequence keeps every row that was read.
+TEST(Euroc, ADropOutInTheGroundTruthLeavesOutOnlyTheSamplesInIt) {
+  TempDir dir;
+  const std::vector<SensorFrame> frames = frames_with_imu_truth(25);
+  write_sequence(dir / "source", frames);
+  const auto file = dir / "source" / "mav0" / "state_groundtruth_estimate0" / "data.csv";
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(file);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), frames.size() * 10 + 1);
+  {
+    std::ofstream out(file, std::ios::trunc);
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+      if (k < 1 + 70 + 1 || k > 1 + 70 + 8) out << lines[k] << '\n';  // frame 7's samples 1 .. 8 left out
+    }
+  }
+  EXPECT_EQ(open(dir / "source")->info().imu_samples_with_groundtruth, frames.size() * 10 - 8);
+  const std::vector<SensorFrame> read = read_all(*open(dir / "source"));
+  ASSERT_EQ(read.size(), frames.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(i);
+    std::vector<ImuTruth> want = frames[i].imu_truth;
+    if (i == 7) want = {want[0], want[9]};
+    ASSERT_EQ(read[i].imu_truth.size(), want.size());
+    for (std::size_t k = 0; k < want.size(); ++k) {
+      EXPECT_EQ(read[i].imu_truth[k].t_ns, want[k].t_ns);
+      EXPECT_LT((read[i].imu_truth[k].T_world_body.matrix() - want[k].T_world_body.matrix()).cwiseAbs().maxCoeff(),
+                1e-9);
+    }
+  }
+  write_sequence(dir / "copy", read);
+  EXPECT_EQ(csv_rows(dir / "copy" / "mav0" / "state_groundtruth_estimate0" / "data.csv").size(), lines.size() - 1 - 8);
 }
 
 // TUM-VI: the same mav0 layout with the body poses in mocap0/data.csv (pose columns only, at the IMU's

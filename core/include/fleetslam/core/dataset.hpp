@@ -98,7 +98,9 @@ struct DatasetInfo {
   std::string calibration_source;  // "cam0/sensor.yaml", "freiburg1 defaults", "user rig", ...
   std::string imu_file;           // empty when there is no IMU / accelerometer
   std::size_t imu_samples = 0;    // samples in the file
-  std::size_t imu_samples_with_groundtruth = 0;  // samples the ground truth gives the truth at (body poses)
+  // Samples of the file the ground truth gives the truth at (SensorFrame::imu_truth of the frames that
+  // take them), before any frame selection.
+  std::size_t imu_samples_with_groundtruth = 0;
   double imu_rate_hz = 0.0;       // from the median sample interval
   bool accelerometer_only = false;  // TUM: the Kinect accelerometer, gyro fields are zero
 

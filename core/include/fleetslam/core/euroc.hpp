@@ -53,8 +53,9 @@ std::filesystem::path find_mav0(const std::filesystem::path& root);
 // neither the sequence has no ground truth (a warning says why) rather than body poses taken for the
 // camera's. A ground-truth file given in the body frame without either is an InputError. Body-pose
 // ground truth also gives the frames the truth at their IMU samples (SensorFrame::imu_truth, with
-// EuRoC's state where its file has the columns), interpolated within max_groundtruth_gap_s; a frame with
-// a sample outside the ground truth gets none.
+// EuRoC's state where its file has the columns), interpolated within max_groundtruth_gap_s; samples
+// outside the ground truth (before it, after it, in a drop-out) get none. The truth at the samples is the
+// IMU's pose (the rig's body): EuRoC's body frame B is moved to the IMU through cam0's and imu0's T_BS.
 std::unique_ptr<FrameSource> open_euroc(const std::filesystem::path& root, DatasetFormat format,
                                         const DatasetConfig& config, Logger logger);
 

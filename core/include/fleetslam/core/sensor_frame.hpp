@@ -54,8 +54,9 @@ struct SensorFrame {
 
   std::optional<Eigen::Isometry3d> T_world_cam_gt;  // ground-truth pose of the (left) camera
   std::optional<ImuStateGt> imu_state_gt;           // with T_world_cam_gt, from a source that knows it
-  // Empty, or one entry per sample of `imu`, at the same t_ns (a source that knows the truth between
-  // frames; a recorded sequence's frames whose samples are not all within its ground truth leave it empty).
+  // The truth at those samples of `imu` where the source knows it, oldest first, each at its sample's
+  // t_ns: every sample for the simulator, those within the ground truth for a recorded sequence (a
+  // motion-capture drop-out leaves out the samples in it, not the frame's others); empty where none.
   std::vector<ImuTruth> imu_truth;
 
   std::string image_path;  // where the image came from, for messages (empty for rendered frames)
