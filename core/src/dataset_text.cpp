@@ -93,7 +93,11 @@ std::vector<ImageRow> read_image_list(const std::filesystem::path& list_file, St
                                   std::to_string(row.fields.size()));
     }
     const std::optional<TimeNs> t_ns = parse_stamp(row.fields[0], unit);
-    if (!t_ns) throw InputError(where, "timestamp '" + row.fields[0] + "' is not a valid time");
+    if (!t_ns) {
+      throw InputError(where, "timestamp '" + row.fields[0] + "' is not " +
+                                  (unit == StampUnit::kSeconds ? "a valid time in seconds"
+                                                               : "integer nanoseconds (one with a fraction is in seconds)"));
+    }
     if (row.fields[1].empty()) throw InputError(where, "empty image file name");
     if (!rows.empty() && *t_ns <= rows.back().t_ns) {
       throw InputError(where, "timestamp " + row.fields[0] + " does not increase (previous row " +

@@ -70,7 +70,10 @@ std::vector<ImuSample> read_imu_csv(const std::filesystem::path& file) {
       throw InputError(where, "expected 7 fields (t_ns, 3 gyro, 3 accel), found " + std::to_string(row.fields.size()));
     }
     const std::optional<TimeNs> t_ns = parse_nanoseconds(row.fields[0]);
-    if (!t_ns) throw InputError(where, "timestamp '" + row.fields[0] + "' is not integer nanoseconds");
+    if (!t_ns) {
+      throw InputError(where, "timestamp '" + row.fields[0] + "' is not integer nanoseconds (EuRoC's IMU stamps are; "
+                              "one with a fraction is in seconds)");
+    }
     if (!samples.empty() && *t_ns <= samples.back().t_ns) throw InputError(where, "timestamp does not increase");
     double v[6];
     for (std::size_t k = 0; k < 6; ++k) v[k] = parse_number(row.fields[k + 1], where, kColumns[k]);

@@ -98,7 +98,14 @@ std::optional<TimeNs> parse_seconds(std::string_view text) {
   return parse_fixed_point(shifted, 9);
 }
 
-std::optional<TimeNs> parse_nanoseconds(std::string_view text) { return parse_fixed_point(text, 0); }
+std::optional<TimeNs> parse_nanoseconds(std::string_view text) {
+  const std::string_view trimmed = trim(text);
+  const auto dot = trimmed.find('.');
+  if (dot != std::string_view::npos && trimmed.find_first_not_of('0', dot + 1) != std::string_view::npos) {
+    return std::nullopt;
+  }
+  return parse_fixed_point(text, 0);
+}
 
 std::string format_seconds(TimeNs t_ns, int decimals) {
   if (decimals < 0) decimals = 0;

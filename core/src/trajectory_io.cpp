@@ -379,6 +379,7 @@ TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOp
   TimeNs kitti_index = 0;
   const bool keep_after = options.keep_columns_after_pose && out.format == TrajectoryFormat::kEuroc;
   std::vector<double> after_pose;
+  std::optional<std::size_t> columns_after;  // of the first line, when kept: every line must have as many
   while (reader.next(line)) {
     const std::string where = at_line(reader.file(), line.number);
     const auto fields = split_fields(line.text, where);
@@ -392,6 +393,13 @@ TrajectoryFile read_trajectory_file(const fs::path& path, const TrajectoryReadOp
     const std::size_t duplicates = out.duplicates_dropped;
     append_pose(out, pose, where, line.number, options.duplicate_stamps);
     if (!keep_after) continue;
+    // A line with fewer (or more) columns than the others would silently drop a state column for all.
+    if (!columns_after) columns_after = after_pose.size();
+    if (after_pose.size() != *columns_after) {
+      throw InputError(where, std::to_string(8 + after_pose.size()) + " columns where the first line has " +
+                                  std::to_string(8 + *columns_after) +
+                                  " (every line of a EuRoC ground truth has the same columns)");
+    }
     if (out.trajectory.size() > before) {
       out.columns_after_pose.push_back(after_pose);
     } else if (out.duplicates_dropped > duplicates && options.duplicate_stamps == DuplicateStamps::kKeepLast) {

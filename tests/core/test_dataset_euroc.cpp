@@ -602,6 +602,21 @@ TEST(Euroc, ADropOutInTheGroundTruthLeavesOutOnlyTheSamplesInIt) {
   EXPECT_EQ(csv_rows(dir / "copy" / "mav0" / "state_groundtruth_estimate0" / "data.csv").size(), lines.size() - 1 - 8);
 }
 
+// One line of the state ground truth without its last column (past the frames' span, so no frame would
+// notice): an error at that line, not the states dropped from the whole sequence.
+TEST(Euroc, AStateGroundTruthLineWithoutAColumnIsAnErrorAtThatLine) {
+  TempDir dir;
+  write_sequence(dir.path(), frames_with_imu_truth(26));
+  const auto file = dir / "mav0" / "state_groundtruth_estimate0" / "data.csv";
+  const std::size_t lines = static_cast<std::size_t>(kFrames) * 10 + 1;
+  std::string last = test::read_file(file);
+  last.pop_back();  // the newline
+  last = last.substr(last.rfind('\n') + 1);
+  test::replace_line(file, lines, last.substr(0, last.rfind(',')));
+  expect_input_error([&] { open(dir.path()); },
+                     {"state_groundtruth_estimate0/data.csv:" + std::to_string(lines), "16 columns", "17"});
+}
+
 // TUM-VI: the same mav0 layout with the body poses in mocap0/data.csv (pose columns only, at the IMU's
 // rate from the truth at the samples); read back as TUM-VI with the same ground truth.
 TEST(Euroc, TheTumViLayoutHoldsTheGroundTruthInMocap0) {
@@ -895,6 +910,15 @@ TEST_F(EurocBadInput, BadImuRows) {
   expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "not a number"});
   test::replace_line(imu_csv, 5, std::to_string(kT0 - 60000000) + ",0.1,0.2,0.3,0,0,9.8");
   expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "does not increase"});
+  // A stamp in seconds is refused, not rounded to whole nanoseconds.
+  test::replace_line(imu_csv, 5, "1403715273.247142976,0.1,0.2,0.3,0,0,9.8");
+  expect_input_error([&] { open(dir.path()); }, {"imu0/data.csv:5", "not integer nanoseconds", "seconds"});
+}
+
+TEST_F(EurocBadInput, ImageStampsInSeconds) {
+  const auto cam0_csv = mav0() / "cam0" / "data.csv";
+  test::replace_line(cam0_csv, 2, "1403715273.262142976,1403715273262142976.png");
+  expect_input_error([&] { open(dir.path()); }, {"cam0/data.csv:2", "not integer nanoseconds", "seconds"});
 }
 
 TEST_F(EurocBadInput, BadCalibration) {

@@ -44,6 +44,10 @@ TEST(Time, ParsesNanoseconds) {
   EXPECT_EQ(parse_nanoseconds("1403715274312143104.0000000000"), TimeNs{1403715274312143104});
   EXPECT_EQ(parse_nanoseconds("9223372036854775807"), std::numeric_limits<TimeNs>::max());
   EXPECT_FALSE(parse_nanoseconds("14037152a3").has_value());
+  // A fraction other than zeros is a stamp in seconds, not nanoseconds to round.
+  EXPECT_FALSE(parse_nanoseconds("1.005000000").has_value());
+  EXPECT_FALSE(parse_nanoseconds("1403715273262142976.5").has_value());
+  EXPECT_EQ(parse_nanoseconds("12.000"), TimeNs{12});
 }
 
 TEST(Time, FormatsExactly) {

@@ -32,7 +32,8 @@ inline TimeNs saturating_add(TimeNs a, TimeNs b) {
 std::optional<TimeNs> parse_seconds(std::string_view text);
 
 // Parses an integer nanosecond stamp ("1403715273262142976"); a fractional part of zeros
-// ("1403715274312143104.0000000000") is accepted, any other fraction is rounded to the nearest ns.
+// ("1403715274312143104.0000000000") is accepted, any other fraction is not (nullopt): "1.005000000" is
+// a stamp in seconds, not 1 ns.
 std::optional<TimeNs> parse_nanoseconds(std::string_view text);
 
 // Formats t_ns as decimal seconds with `decimals` digits (0..9), exactly ("1305031229.528748000").

@@ -53,7 +53,8 @@ enum class DuplicateStamps { kError, kKeepFirst, kKeepLast };
 struct TrajectoryReadOptions {
   std::optional<TrajectoryFormat> format;  // nullopt: detect_trajectory_format
   DuplicateStamps duplicate_stamps = DuplicateStamps::kError;
-  // EuRoC: keep each line's numbers after the quaternion (state ground truth: velocity and biases).
+  // EuRoC: keep each line's numbers after the quaternion (state ground truth: velocity and biases); a
+  // line with another number of columns than the first is then an InputError at that line.
   bool keep_columns_after_pose = false;
 };
 
