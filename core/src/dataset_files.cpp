@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <system_error>
 
 #include <opencv2/core.hpp>
@@ -73,6 +74,10 @@ std::vector<double> SettingsFile::numbers(const std::string& key, std::initializ
 
 namespace {
 
+// In a staging folder while a writer fills it: a folder named like a staging folder without it is not
+// ours to remove.
+constexpr const char* kStagingMarker = ".fleetslam_partial";
+
 // `root` without a trailing separator, so that a sibling can be named after it ("out/" -> "out").
 std::filesystem::path without_trailing_separator(const std::filesystem::path& root) {
   std::filesystem::path r = root.lexically_normal();
@@ -96,16 +101,30 @@ std::filesystem::path begin_staged_folder(const std::filesystem::path& root) {
   }
   std::filesystem::path staging = r;
   staging += ".partial";
-  std::filesystem::remove_all(staging, ec);
-  if (ec) throw InputError(staging.string(), "cannot remove an earlier incomplete write: " + ec.message());
+  if (std::filesystem::exists(staging, ec)) {
+    const bool ours = std::filesystem::is_directory(staging, ec) &&
+                      (std::filesystem::is_empty(staging, ec) || std::filesystem::exists(staging / kStagingMarker, ec));
+    if (!ours) {
+      throw InputError(staging.string(), "exists and is not an incomplete write of fleetslam's (it has no " +
+                                             std::string(kStagingMarker) + "); move it away, the sequence is written "
+                                                                            "there first");
+    }
+    std::filesystem::remove_all(staging, ec);
+    if (ec) throw InputError(staging.string(), "cannot remove an earlier incomplete write: " + ec.message());
+  }
   std::filesystem::create_directories(staging, ec);
   if (ec) throw InputError(staging.string(), "cannot create the folder: " + ec.message());
+  std::ofstream marker(staging / kStagingMarker);
+  marker << "an incomplete sequence written by fleetslam; a new write to " << r.string() << " removes it\n";
+  if (!marker) throw InputError((staging / kStagingMarker).string(), "cannot write the file");
   return staging;
 }
 
 void commit_staged_folder(const std::filesystem::path& staging, const std::filesystem::path& root) {
   const std::filesystem::path r = without_trailing_separator(root);
   std::error_code ec;
+  std::filesystem::remove(staging / kStagingMarker, ec);
+  if (ec) throw InputError((staging / kStagingMarker).string(), "cannot remove the file: " + ec.message());
   if (std::filesystem::is_directory(r, ec) && std::filesystem::is_empty(r, ec)) std::filesystem::remove(r, ec);
   std::filesystem::rename(staging, r, ec);
   if (ec) throw InputError(r.string(), "cannot move the written sequence here from " + staging.string() + ": " + ec.message());

@@ -153,7 +153,8 @@ std::string exact(double value);
 // Writers lay a sequence out in a staging folder beside `root` (root + ".partial") and rename it to
 // `root` once it is complete, so that a write that fails half-way never looks like a finished sequence.
 // begin: refuses a `root` that exists and is not an empty folder, removes a stale staging
-// folder (an earlier write that failed), creates the staging folder and returns it.
+// folder (an earlier write that failed: empty, or marked as fleetslam's; a folder of that name without
+// the mark is refused, not removed), creates the staging folder with the mark and returns it.
 std::filesystem::path begin_staged_folder(const std::filesystem::path& root);
 // Renames the staging folder to `root` (an empty folder there is replaced).
 void commit_staged_folder(const std::filesystem::path& staging, const std::filesystem::path& root);

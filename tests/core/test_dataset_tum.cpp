@@ -475,6 +475,12 @@ TEST(TumRgbdWriter, RefusesFramesWithoutDepthAndNonEmptyFolders) {
   EXPECT_TRUE(std::filesystem::exists(dir / "a.partial" / "rgb.txt"));
   write_sequence(dir / "a", make_frames(8));  // a new write replaces the stale one
   EXPECT_FALSE(std::filesystem::exists(dir / "a.partial"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "a" / ".fleetslam_partial"));  // the mark stays behind
+  // A folder of the staging folder's name that fleetslam did not write is refused, not removed.
+  std::filesystem::create_directories(dir / "user.partial");
+  test::write_file(dir / "user.partial" / "notes.txt", "mine");
+  expect_input_error([&] { write_sequence(dir / "user", make_frames(8)); }, {"user.partial", "move it away"});
+  EXPECT_EQ(test::read_file(dir / "user.partial" / "notes.txt"), "mine");
   EXPECT_EQ(open(dir / "a")->size(), 8u);
   expect_input_error([&] { write_sequence(dir / "a", make_frames(8)); }, {"not empty"});
   std::filesystem::create_directories(dir / "empty");  // an empty folder is taken

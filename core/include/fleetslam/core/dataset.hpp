@@ -133,8 +133,8 @@ class FrameSource {
 };
 
 // A writer of frames. write() takes frames in time order; close() completes the files (lists that
-// need every frame, such as ground truth) and is called by the destructor when not called before
-// (the destructor swallows errors: call close() to see them).
+// need every frame, such as ground truth). Call it: a writer destroyed without close() leaves what it
+// wrote incomplete (the sequence writers: in the staging folder beside the output, with a warning).
 class FrameSink {
  public:
   virtual ~FrameSink() = default;
