@@ -37,12 +37,21 @@ void PointCloud::push_back_from(const PointCloud& other, std::size_t i) {
 void PointCloud::append(const PointCloud& other) {
   if (other.empty()) return;  // nothing to add, and no attribute to lose
   const bool keep_colors = (empty() || has_colors()) && other.has_colors();
-  const bool keep_normals = (empty() || has_normals()) && other.has_normals();
+  // Normals have a value for "unknown" (zero): the side without them is padded, so one cloud without
+  // normals does not take them from the other's points.
+  const bool keep_normals = has_normals() || other.has_normals();
   if (!keep_colors) colors.clear();
+  if (keep_normals && !has_normals()) normals.assign(points.size(), Eigen::Vector3f::Zero());
   if (!keep_normals) normals.clear();
   points.insert(points.end(), other.points.begin(), other.points.end());
   if (keep_colors) colors.insert(colors.end(), other.colors.begin(), other.colors.end());
-  if (keep_normals) normals.insert(normals.end(), other.normals.begin(), other.normals.end());
+  if (keep_normals) {
+    if (other.has_normals()) {
+      normals.insert(normals.end(), other.normals.begin(), other.normals.end());
+    } else {
+      normals.resize(points.size(), Eigen::Vector3f::Zero());
+    }
+  }
 }
 
 void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T) {
@@ -75,7 +84,10 @@ std::size_t remove_non_finite(PointCloud& cloud) {
     if (!cloud.points[i].allFinite()) continue;
     cloud.points[kept] = cloud.points[i];
     if (colored) cloud.colors[kept] = cloud.colors[i];
-    if (with_normals) cloud.normals[kept] = cloud.normals[i];
+    if (with_normals) {
+      const Eigen::Vector3f& n = cloud.normals[i];
+      cloud.normals[kept] = n.allFinite() ? n : Eigen::Vector3f::Zero();  // unknown, not opposite to all
+    }
     ++kept;
   }
   const std::size_t dropped = cloud.points.size() - kept;

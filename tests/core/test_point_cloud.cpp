@@ -565,10 +565,18 @@ TEST(PointCloud, NormalsFollowTransformsAppendsAndRemovals) {
   cloud.push_back({1, 0, 0}, {1, 1, 1}, Eigen::Vector3f(1, 0, 0));
   cloud.push_back({nan, 0, 0}, {2, 2, 2}, Eigen::Vector3f(0, 1, 0));
   cloud.push_back({0, 0, 1}, {3, 3, 3}, Eigen::Vector3f(0, 0, 1));
+  cloud.push_back({0, 2, 0}, {4, 4, 4}, Eigen::Vector3f(nan, 0, 1));
   ASSERT_TRUE(cloud.has_normals());
   EXPECT_EQ(remove_non_finite(cloud), 1u);
   ASSERT_TRUE(cloud.has_normals());
   EXPECT_EQ(cloud.normals[1], Eigen::Vector3f(0, 0, 1));
+  // A finite point's NaN normal becomes unknown (zero); the point stays.
+  ASSERT_EQ(cloud.size(), 3u);
+  EXPECT_EQ(cloud.points[2], Eigen::Vector3f(0, 2, 0));
+  EXPECT_EQ(cloud.normals[2], Eigen::Vector3f::Zero());
+  cloud.points.pop_back();
+  cloud.colors.pop_back();
+  cloud.normals.pop_back();
 
   // Rotated with the points, not translated.
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -592,11 +600,25 @@ TEST(PointCloud, NormalsFollowTransformsAppendsAndRemovals) {
   all.append(cloud);
   EXPECT_TRUE(all.has_normals());
   EXPECT_EQ(all.size(), 4u);
+  // A part without normals gets unknown (zero) ones: the others' stay, in either order.
   PointCloud plain;
   plain.push_back({1, 1, 1}, {0, 0, 0});
   all.append(plain);
-  EXPECT_FALSE(all.has_normals());
+  ASSERT_TRUE(all.has_normals());
   EXPECT_TRUE(all.has_colors());
+  EXPECT_EQ(all.normals[0], cloud.normals[0]);
+  EXPECT_EQ(all.normals[4], Eigen::Vector3f::Zero());
+  PointCloud plain_first = plain;
+  plain_first.append(cloud);
+  ASSERT_TRUE(plain_first.has_normals());
+  EXPECT_EQ(plain_first.normals[0], Eigen::Vector3f::Zero());
+  EXPECT_EQ(plain_first.normals[1], cloud.normals[0]);
+  EXPECT_EQ(plain_first.normals[2], cloud.normals[1]);
+  // Without normals on either side there are none.
+  PointCloud none = plain;
+  none.append(plain);
+  EXPECT_FALSE(none.has_normals());
+  EXPECT_TRUE(none.normals.empty());
   all.clear();
   EXPECT_TRUE(all.normals.empty());
 }

@@ -38,7 +38,8 @@ struct PointCloud {
   // Appends point i of `other` with the colour and normal it has (a cloud built this way from one
   // source keeps that source's attributes).
   void push_back_from(const PointCloud& other, std::size_t i);
-  // Appends `other`; colours (normals) are kept only when both clouds have them (or this one is empty).
+  // Appends `other`. Colours are kept only when both clouds have them (or this one is empty); normals
+  // when either has them, the points of the other with zero ones (unknown).
   void append(const PointCloud& other);
 };
 
@@ -48,7 +49,8 @@ void transform_in_place(PointCloud& cloud, const Eigen::Isometry3d& T);
 // The points alone moved by T, computed as transform_in_place does (no copy of colours or normals).
 std::vector<Eigen::Vector3f> transformed_points(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& T);
 
-// Drops points with a NaN or infinite coordinate; returns how many were dropped.
+// Drops points with a NaN or infinite coordinate; returns how many were dropped. A kept point's
+// non-finite normal becomes zero (unknown): compared with others, NaN would disagree with every normal.
 std::size_t remove_non_finite(PointCloud& cloud);
 
 // Axis-aligned bounds of the finite points; both zero for an empty cloud.
