@@ -7,16 +7,15 @@
 #include <iterator>
 #include <map>
 #include <set>
-#include <unordered_set>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/logger.h>
 
+#include "fleetslam/central/kdtree.hpp"
 #include "fleetslam/core/error.hpp"
 #include "fleetslam/core/se3.hpp"
 #include "fleetslam/core/time.hpp"
-#include "voxel_hash.hpp"
 
 namespace fleetslam::central {
 
@@ -34,33 +33,6 @@ nlohmann::json pose_json(const Eigen::Isometry3d& T) {
   return {{"t", {T.translation().x(), T.translation().y(), T.translation().z()}},
           {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
 }
-
-// Voxel hash of a cloud at `cell_m`: a cheap "is there a point near here" test (the 27 cells around a
-// point cover every point within cell_m of it).
-class OccupancyHash {
- public:
-  OccupancyHash(const core::PointCloud& cloud, double cell_m) : inv_(static_cast<float>(1.0 / cell_m)) {
-    cells_.reserve(cloud.size());
-    for (const Eigen::Vector3f& p : cloud.points) cells_.insert(detail::pack_voxel(detail::voxel_of(p, inv_)));
-  }
-  bool near(const Eigen::Vector3f& p) const {
-    const Eigen::Vector3i c = detail::voxel_of(p, inv_);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          if (cells_.count(detail::pack_voxel(c + Eigen::Vector3i(dx, dy, dz))) > 0) return true;
-        }
-      }
-    }
-    return false;
-  }
-
- private:
-  // Clamped voxel coordinates (voxel_hash.hpp): far points share border cells instead of wrapping into
-  // cells near the origin (21 bits a coordinate: at the smallest radius, 1e-4 m, 105 m wrapped).
-  float inv_;
-  std::unordered_set<std::uint64_t> cells_;
-};
 
 nlohmann::json later_components_json(const std::vector<ComponentPlacement>& components) {
   nlohmann::json out = nlohmann::json::array();
@@ -122,7 +94,10 @@ std::string to_string(IntegrateStatus status) {
 }
 
 Server::Server(const ServerConfig& config, core::Logger logger)
-    : config_(config), logger_(std::move(logger)), merger_(config.merge, logger_), fusion_(config.fusion) {
+    : config_((core::check_config(config, "central"), config)),
+      logger_(std::move(logger)),
+      merger_(config.merge, logger_),
+      fusion_(config.fusion) {
   FLEETSLAM_CHECK(logger_ != nullptr, "Server needs a logger (core::null_logger() discards)");
 }
 
@@ -563,7 +538,11 @@ const ServerMergeReport& Server::merge() {
         const Eigen::Isometry3d T = other_info != nullptr ? other_info->T_world_robot : other.spec.T_world_robot;
         others.append(core::transformed(robot_cloud(other_id, other.component), T));
       }
-      const OccupancyHash near_others(others, config_.anchor_radius_m);
+      // Exact distances: the 27 voxels around a point reached 2 * sqrt(3) radii (17 cm at 5 cm).
+      const KdTree others_tree(others.points);
+      const auto near_others = [&](const Eigen::Vector3f& p) {
+        return others_tree.nearest(p, static_cast<float>(config_.anchor_radius_m)).found();
+      };
       std::vector<const ServerKeyframe*> ordered;
       for (const auto& entry : robot.keyframes) {
         if (entry.second.component == robot.component) ordered.push_back(&entry.second);
@@ -578,7 +557,7 @@ const ServerMergeReport& Server::merge() {
         for (std::size_t i = 0; i < kf.dense_cam.size(); ++i) {
           if (masked && kf.on_teammate[i]) continue;
           ++scene;
-          near += near_others.near(T_world_cam * kf.dense_cam.points[i]) ? 1 : 0;
+          near += near_others(T_world_cam * kf.dense_cam.points[i]) ? 1 : 0;
         }
         if (scene == 0) continue;
         if (static_cast<double>(near) >= config_.anchor_min_overlap_share * static_cast<double>(scene)) {

@@ -144,7 +144,10 @@ struct RobotMergeReport {
   Eigen::Isometry3d T_world_robot_prior = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (the prior when not fine matched)
   bool placed = false;                 // in the merged cloud
-  bool fine_matched = false;           // a GICP correction was applied
+  // Placed by fine matching: a GICP correction applied, or the prior confirmed by the overlap (hypothesis
+  // "prior": no correction fit the cloud clearly better; refinement_rounds 0, `registration` the run not
+  // applied).
+  bool fine_matched = false;
   bool no_common_surface = false;      // the last overlap's pairs fit no surface (see above)
   // Coarse matching against the merged cloud at the robot's last attempt: mutual pairs in all, and per
   // robot already placed (robot id, pairs) -- the per-pair overlap sizes.

@@ -121,7 +121,7 @@ struct ComponentPlacement {
   int merge_id = 0;                // its id in MergeResult::robots (after the robots' ids)
   std::size_t points = 0;
   bool placed = false;             // in the merged map
-  bool registered = false;
+  bool registered = false;         // fine matching placed it (RobotMergeReport::fine_matched)
   std::string merge_status;
   Eigen::Isometry3d T_world_component = Eigen::Isometry3d::Identity();  // placed: its own; else its prior
 };
@@ -132,7 +132,7 @@ struct RobotFusionReport {
   std::size_t points = 0;          // dense points in the robot's map
   std::size_t teammate_points = 0; // of them, left out as points on other robots
   std::size_t overlap_points = 0;  // in the overlap with the map it was registered against
-  bool registered = false;         // fine registration refined its prior
+  bool registered = false;         // fine matching placed it: refined its prior, or confirmed it (fine_matched)
   std::string merge_status;        // the merger's word on it ("reference", "fine matched", "no overlap: prior kept", ...)
   std::vector<std::size_t> anchors;  // keyframes (indices in time order) in the overlap
   Eigen::Isometry3d T_world_robot = Eigen::Isometry3d::Identity();  // refined (or the prior)
