@@ -89,7 +89,7 @@ std::string without_overlap(const RobotMergeReport& report) {
 }  // namespace
 
 MapMerger::MapMerger(const Config& config, core::Logger logger)
-    : config_(config),
+    : config_((core::check_config(config, "merge"), config)),
       overlap_(config.coarse),
       registration_(config.registration),
       local_registration_(config.local_registration),

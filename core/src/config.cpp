@@ -68,6 +68,39 @@ std::string format_limit(T value) {
 
 }  // namespace
 
+namespace {
+
+template <class T>
+void check_number(const std::string& where, T value, Limits<T> limits) {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(value)) throw InputError(where, "expected a finite number, got " + format_limit(value));
+  }
+  if (value < limits.min || value > limits.max) {
+    throw InputError(where, format_limit(value) + " is outside [" + format_limit(limits.min) + ", " +
+                                format_limit(limits.max) + "]");
+  }
+}
+
+}  // namespace
+
+void ConfigChecker::operator()(const char* key, const int& value, Limits<int> limits) {
+  check_number(where(key), value, limits);
+}
+
+void ConfigChecker::operator()(const char* key, const std::int64_t& value, Limits<std::int64_t> limits) {
+  check_number(where(key), value, limits);
+}
+
+void ConfigChecker::operator()(const char* key, const double& value, Limits<double> limits) {
+  check_number(where(key), value, limits);
+}
+
+void ConfigChecker::operator()(const char* key, const std::vector<double>& value) {
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    check_number(where(key) + "[" + std::to_string(i) + "]", value[i], Limits<double>{});
+  }
+}
+
 ConfigReader::ConfigReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ConfigReader::~ConfigReader() = default;
 ConfigReader::ConfigReader(ConfigReader&&) noexcept = default;

@@ -571,6 +571,29 @@ TEST(Server, RejectsABodyItCannotUse) {
   EXPECT_NO_THROW(server.add_robot({4, "good", Eigen::Isometry3d::Identity(), body}));
 }
 
+// A config set in code is checked as its YAML would be (the limits of its visit), naming the key.
+TEST(Server, RejectsAConfigSetInCodeOutsideItsLimits) {
+  EXPECT_NO_THROW(Server(ServerConfig{}, core::null_logger()));
+  const auto error_of = [](const ServerConfig& config) -> std::string {
+    try {
+      Server server(config, core::null_logger());
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  ServerConfig config;
+  config.anchor_radius_m = 0.0;  // every point would have been "near" through an infinite inverse cell
+  EXPECT_EQ(error_of(config).rfind("central.anchor_radius_m: 0.0 is outside", 0), 0u) << error_of(config);
+  config = ServerConfig{};
+  config.merge.consistency_distance_m = 0.0;
+  EXPECT_EQ(error_of(config).rfind("central.merge.consistency_distance_m: 0.0 is outside", 0), 0u) << error_of(config);
+  config = ServerConfig{};
+  config.anchor_min_overlap_share = NAN;
+  EXPECT_EQ(error_of(config).rfind("central.anchor_min_overlap_share: expected a finite number", 0), 0u)
+      << error_of(config);
+}
+
 TEST(Server, WritesItsOutputs) {
   const TwoRobots s;
   Server server(ServerConfig{}, core::null_logger());

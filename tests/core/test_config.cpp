@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -190,6 +192,43 @@ TEST(Config, ListErrorsNameTheItem) {
   EXPECT_EQ(error_of_fleet("robots: 3\n"), "fleet.yaml:robots: expected a list of maps, got '3' (line 1)");
   EXPECT_EQ(error_of_fleet("robots: [1]\n"), "fleet.yaml:robots[0]: expected a map, got '1' (line 1)");
   EXPECT_EQ(error_of_fleet("robots:\n  - {name: a, colour: red}\n").rfind("fleet.yaml:robots[0].colour: unknown key", 0), 0u);
+}
+
+// A config built in code is held to what its YAML would be: the limits of its visit, finite numbers,
+// nested structs and list items named by their path.
+TEST(Config, CheckConfigHoldsConfigsBuiltInCodeToTheirLimits) {
+  const auto error_of_check = [](const auto& config, const std::string& name) -> std::string {
+    try {
+      check_config(config, name);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  OuterConfig outer;
+  EXPECT_EQ(error_of_check(outer, "agent"), "no error");
+  outer.levels = 0;
+  EXPECT_EQ(error_of_check(outer, "agent"), "agent.levels: 0 is outside [1, 16]");
+  outer = OuterConfig{};
+  outer.inner.radius_m = 11.0;
+  EXPECT_EQ(error_of_check(outer, "agent"), "agent.inner.radius_m: 11.0 is outside [0.0, 10.0]");
+  outer.inner.radius_m = std::nan("");
+  EXPECT_EQ(error_of_check(outer, "agent").rfind("agent.inner.radius_m: expected a finite number", 0), 0u);
+  outer = OuterConfig{};
+  outer.inner.weights[1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(error_of_check(outer, "agent").rfind("agent.inner.weights[1]: expected a finite number", 0), 0u);
+  outer = OuterConfig{};
+  outer.required_value = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(error_of_check(outer, "agent").rfind("agent.required_value: expected a finite number", 0), 0u);
+  FleetConfig fleet;
+  fleet.robots = {RobotConfig{"a", 1.0}, RobotConfig{"b", 6.0}};
+  EXPECT_EQ(error_of_check(fleet, "fleet"), "fleet.robots[1].speed_mps: 6.0 is outside [0.0, 5.0]");
+  fleet.robots[1].speed_mps = 5.0;  // the limits are inclusive
+  EXPECT_EQ(error_of_check(fleet, "fleet"), "no error");
+  EXPECT_EQ(error_of_check(InnerConfig{}, ""), "no error");
+  InnerConfig inner;
+  inner.radius_m = -1.0;
+  EXPECT_EQ(error_of_check(inner, ""), "radius_m: -1.0 is outside [0.0, 10.0]");
 }
 
 TEST(Config, MissingFileIsAnInputError) {

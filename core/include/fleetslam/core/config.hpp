@@ -196,6 +196,52 @@ struct HasVisit<T, std::void_t<decltype(std::declval<T&>().visit(std::declval<Co
     : std::true_type {};
 }  // namespace detail
 
+// Checks a config struct built in code as reading it from YAML would: every number finite and within the
+// limits its visit gives (check_config below). Messages name the value as "name.key" ("name.list[i].key").
+class ConfigChecker {
+ public:
+  explicit ConfigChecker(std::string path) : path_(std::move(path)) {}
+
+  void operator()(const char*, const bool&) {}
+  void operator()(const char* key, const int& value, Limits<int> limits = {});
+  void operator()(const char* key, const std::int64_t& value, Limits<std::int64_t> limits = {});
+  void operator()(const char* key, const double& value, Limits<double> limits = {});
+  void operator()(const char*, const std::string&) {}
+  void operator()(const char* key, const std::vector<double>& value);
+  void operator()(const char*, const std::vector<std::string>&) {}
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, Struct& value) {
+    ConfigChecker nested(where(key));
+    value.visit(nested);
+  }
+  template <class Struct, std::enable_if_t<detail::HasVisit<Struct>::value, int> = 0>
+  void operator()(const char* key, std::vector<Struct>& value, const Struct& = Struct{}) {
+    for (std::size_t i = 0; i < value.size(); ++i) {
+      ConfigChecker item(where(key) + "[" + std::to_string(i) + "]");
+      value[i].visit(item);
+    }
+  }
+  template <class T, class... Extra>
+  void required(const char* key, T& value, Extra&&... extra) {
+    (*this)(key, value, std::forward<Extra>(extra)...);
+  }
+  template <class E>
+  void choice(const char*, const E&, std::initializer_list<std::pair<const char*, E>>) {}
+
+ private:
+  std::string where(const char* key) const { return path_.empty() ? std::string(key) : path_ + "." + key; }
+  std::string path_;
+};
+
+// Throws InputError naming `name`.key when a field of a config built in code is non-finite or outside
+// the limits its visit gives: components check their Config in their constructor, so that one set in code
+// is held to what its YAML would be.
+template <class Config>
+void check_config(Config config, const std::string& name) {
+  ConfigChecker checker(name);
+  config.visit(checker);
+}
+
 // Reads `section` (dotted path, "" for the whole file) of a YAML file into Config, rejecting unknown keys.
 template <class Config>
 Config load_config(const ConfigReader& root, const std::string& section = "") {
