@@ -284,7 +284,6 @@ std::optional<GlobalBaProblem> LoopCloser::prepare_global_ba(int component, cons
 
 BaResult LoopCloser::solve_global_ba(const GlobalBaProblem& gp) const {
   OptimizerConfig config = config_.bundle_adjustment;
-  config.rounds = config_.global_ba_rounds;
   config.iterations_per_round = config_.global_ba_iterations;
   return bundle_adjust(gp.camera, gp.bf, gp.problem, config);
 }

@@ -147,7 +147,6 @@ TEST(GlobalBaSolve, UsesTheAgentsChiSquareThresholds) {
     LoopClosingConfig config;
     config.bundle_adjustment.chi2_mono = chi2;
     config.bundle_adjustment.chi2_stereo = chi2;
-    config.global_ba_rounds = 2;
     const LoopCloser closer(config, core::null_logger());
     const std::optional<GlobalBaProblem> problem = closer.prepare_global_ba(0, map);
     EXPECT_TRUE(problem.has_value());

@@ -71,14 +71,13 @@ struct LoopClosingConfig {
   int strong_covisibility = 100;   // shared points for a covisibility edge of the essential graph
   int pose_graph_iterations = 20;
   bool global_ba = true;
-  int global_ba_rounds = 4;         // optimise, classify outliers, repeat
-  int global_ba_iterations = 20;    // per round
+  int global_ba_iterations = 20;    // per pass of bundle_adjust (robust, then plain)
   std::int64_t seed = 0;
   BowMatchConfig matching;
   ProjectionSearchConfig search;   // guided matching and fusion
   // Not read from this section: the agent sets them from its own (tracking's `optimizer`, mapping's `ba`
   // and covisibility_min_weight), so that loops verify poses, adjust the map (chi-square thresholds,
-  // threads; global_ba_rounds and global_ba_iterations replace its counts) and link keyframes as the rest
+  // threads; global_ba_iterations replaces its count) and link keyframes as the rest
   // of the agent does.
   OptimizerConfig pose_optimizer;
   OptimizerConfig bundle_adjustment;
@@ -107,7 +106,6 @@ struct LoopClosingConfig {
     v("strong_covisibility", strong_covisibility, core::Limits<int>{1, 100000});
     v("pose_graph_iterations", pose_graph_iterations, core::Limits<int>{1, 1000});
     v("global_ba", global_ba);
-    v("global_ba_rounds", global_ba_rounds, core::Limits<int>{1, 20});
     v("global_ba_iterations", global_ba_iterations, core::Limits<int>{1, 1000});
     v("seed", seed, core::Limits<std::int64_t>{0});
     v("matching", matching);

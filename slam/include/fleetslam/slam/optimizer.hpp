@@ -30,7 +30,9 @@ struct Observation {
 };
 
 struct OptimizerConfig {
-  int rounds = 4;                 // optimise, classify outliers, repeat (outliers left out)
+  // Pose-only optimisation (optimize_pose): optimise, classify outliers, repeat (outliers left out).
+  // bundle_adjust always runs two passes (robust, then plain) and does not read it.
+  int rounds = 4;
   int iterations_per_round = 10;
   // Pose-only rounds with the robust kernel: with many residuals far beyond Huber's delta (a poor
   // initial pose) the batched kernel (see above) needs more iterations than Ceres' per-block
