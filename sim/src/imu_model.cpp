@@ -35,11 +35,6 @@ ImuModel::ImuModel(const ImuModelConfig& config, std::uint64_t seed)
   if (!(config.noise.rate_hz > 0.0)) {
     throw std::invalid_argument("ImuModel: rate_hz must be positive, got " + std::to_string(config.noise.rate_hz));
   }
-  // Exact kinematics means no bias either, so that ground truth (measurement - bias) stays consistent.
-  if (!config_.noise_enabled) {
-    gyro_bias_.setZero();
-    accel_bias_.setZero();
-  }
 }
 
 core::ImuSample ImuModel::measure(core::TimeNs t_ns, const Eigen::Vector3d& gyro_true_radps,
@@ -56,7 +51,11 @@ core::ImuSample ImuModel::measure(core::TimeNs t_ns, const Eigen::Vector3d& gyro
   const double dt_s = first ? 0.0 : core::ns_to_seconds(t_ns - last_t_ns_);
   has_last_ = true;
   last_t_ns_ = t_ns;
-  if (!config_.noise_enabled) return sample;
+  if (!config_.noise_enabled) {  // the initial biases, held: a known constant bias with no draws
+    sample.gyro_radps += gyro_bias_;
+    sample.accel_mps2 += accel_bias_;
+    return sample;
+  }
 
   // Draw order: gyro walk, accel walk (not on the first call), gyro white, accel white.
   std::normal_distribution<double> unit(0.0, 1.0);

@@ -8,6 +8,7 @@
 #include <GL/glext.h>
 #include <GL/osmesa.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <sstream>
@@ -98,7 +99,9 @@ Renderer::Renderer(const mjModel* model, int max_width, int max_height) : impl_(
     throw Error("OSMesa: cannot make the off-screen GL context current");
   }
   mjv_defaultScene(&impl_->scene);
-  mjv_makeScene(model, &impl_->scene, 4000);
+  // Room for every geom of the model and MuJoCo's decorations: a full scene would drop geoms from the
+  // images while surface_points() still samples them.
+  mjv_makeScene(model, &impl_->scene, std::max(4000, 2 * model->ngeom + 1000));
   mjr_defaultContext(&impl_->context);
   mjr_makeContext(model, &impl_->context, mjFONTSCALE_100);
   mjr_setBuffer(mjFB_OFFSCREEN, &impl_->context);

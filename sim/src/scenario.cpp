@@ -124,6 +124,19 @@ void check_sensors(const std::filesystem::path& file, std::size_t index, const R
                      std::to_string(robot.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
                          std::to_string(1.0 / physics_step_s) + " Hz (physics_step_s)");
   }
+  // IMU samples fall on physics steps: a period that is not a whole number of steps gives uneven gaps
+  // (6, 3, 6, 6, 3 ms for 200 Hz at 3 ms steps) under a calibration that states one rate, and white noise
+  // scaled for that rate. Cameras may be uneven (30 Hz at 1 ms steps): their stamps say when each image is.
+  if (robot.imu.enabled && !imu_period_fits_steps(robot.imu.noise.rate_hz, physics_step_s)) {
+    const double steps = 1.0 / (robot.imu.noise.rate_hz * physics_step_s);
+    const double step_hz = 1.0 / physics_step_s;
+    const double below = step_hz / std::ceil(steps);
+    const double above = step_hz / std::max(1.0, std::floor(steps));
+    throw InputError(robot_key(file, index, "imu.rate_hz"),
+                     std::to_string(robot.imu.noise.rate_hz) + " Hz is not a whole number of physics steps (" +
+                         std::to_string(physics_step_s) + " s): its samples would be unevenly spaced; take " +
+                         std::to_string(below) + " or " + std::to_string(above) + " Hz, or another physics_step_s");
+  }
   // IMU samples travel in the SensorFrame of the next camera image: without a camera none is ever
   // delivered, and they pile up for the whole run.
   if (robot.imu.enabled && !robot.camera.enabled) {

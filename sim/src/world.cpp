@@ -388,6 +388,12 @@ World::World(ScenarioConfig scenario, core::Logger logger) : impl_(std::make_uni
                        "IMU rate " + std::to_string(config.imu.noise.rate_hz) + " Hz exceeds the physics rate " +
                            std::to_string(1.0 / impl_->scenario.physics_step_s) + " Hz (physics_step_s)");
     }
+    if (config.imu.enabled && !imu_period_fits_steps(config.imu.noise.rate_hz, step_s)) {
+      throw InputError(impl_->scenario.scene + ": robot " + config.name,
+                       "IMU rate " + std::to_string(config.imu.noise.rate_hz) +
+                           " Hz is not a whole number of physics steps (" + std::to_string(step_s) +
+                           " s): its samples would be unevenly spaced");
+    }
     impl_->robots.emplace_back(config);
     impl_->bind_robot(impl_->robots.back());
     if (config.camera.enabled) {

@@ -44,7 +44,6 @@ const Eigen::Vector3d kAccelTrue(0.5, -0.25, 9.81);
 TEST(ImuModel, WithoutNoiseMeasuresTheExactKinematics) {
   ImuModelConfig config;
   config.noise_enabled = false;
-  config.initial_gyro_bias_radps = {0.01, 0.02, 0.03};
   ImuModel imu(config, 7);
   for (int k = 0; k < 100; ++k) {
     const Eigen::Vector3d gyro = kGyroTrue * k;
@@ -56,6 +55,25 @@ TEST(ImuModel, WithoutNoiseMeasuresTheExactKinematics) {
   }
   EXPECT_EQ(imu.gyro_bias_radps(), Eigen::Vector3d::Zero());
   EXPECT_EQ(imu.accel_bias_mps2(), Eigen::Vector3d::Zero());
+}
+
+// Without noise, configured initial biases are a known constant bias: added to every sample, never
+// drawn or walked, and reported as the truth.
+TEST(ImuModel, WithoutNoiseTheInitialBiasesAreHeld) {
+  ImuModelConfig config;
+  config.noise_enabled = false;
+  config.initial_gyro_bias_radps = {0.01, 0.02, 0.03};
+  config.initial_accel_bias_mps2 = {-0.1, 0.0, 0.2};
+  const Eigen::Vector3d gyro_bias(0.01, 0.02, 0.03);
+  const Eigen::Vector3d accel_bias(-0.1, 0.0, 0.2);
+  ImuModel imu(config, 7);
+  for (int k = 0; k < 100; ++k) {
+    const core::ImuSample sample = imu.measure(k * kStepNs, kGyroTrue, kAccelTrue);
+    EXPECT_EQ(sample.gyro_radps, kGyroTrue + gyro_bias);
+    EXPECT_EQ(sample.accel_mps2, kAccelTrue + accel_bias);
+  }
+  EXPECT_EQ(imu.gyro_bias_radps(), gyro_bias);
+  EXPECT_EQ(imu.accel_bias_mps2(), accel_bias);
 }
 
 TEST(ImuModel, WhiteNoiseHasTheDiscreteStandardDeviation) {

@@ -695,6 +695,13 @@ TEST(World, AnImuFasterThanThePhysicsIsRefused) {
   }
   scenario.physics_step_s = 0.005;  // 200 Hz: one sample per step
   EXPECT_NO_THROW(World(scenario, nullptr));
+  scenario.physics_step_s = 0.003;  // 200 Hz in steps of 3 ms: gaps of 6, 3, 6, 6, 3 ms
+  try {
+    World world(scenario, nullptr);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a whole number of physics steps"), std::string::npos) << e.what();
+  }
   // The step the ticks fall on is physics_step_s rounded to nanoseconds: 3333334 ns here, longer than
   // the IMU's period (3333333.4 ns), though 299.99999 Hz x 0.0033333335 s is below 1.
   scenario.physics_step_s = 0.0033333335;
@@ -883,6 +890,16 @@ TEST(Scenario, LoadsAndRejectsBadFiles) {
             std::string::npos);
   EXPECT_NE(error_of("scene: scene.xml\nphysics_step_s: 0.01\nrobots:\n  - {name: a, imu: {rate_hz: 200}}\n")
                 .find("robots[0].imu.rate_hz"),
+            std::string::npos);
+  // An IMU period that is not a whole number of steps (200 Hz at 3 ms, 300 Hz at 1 ms) would be uneven.
+  EXPECT_NE(error_of("scene: scene.xml\nphysics_step_s: 0.003\nrobots:\n  - {name: a, imu: {rate_hz: 200}}\n")
+                .find("robots[0].imu.rate_hz: 200.000000 Hz is not a whole number of physics steps"),
+            std::string::npos);
+  EXPECT_NE(error_of(a + "imu: {rate_hz: 300}}\n").find("take 250.000000 or 333.333333 Hz"), std::string::npos)
+      << error_of(a + "imu: {rate_hz: 300}}\n");
+  EXPECT_NE(error_of("scene: scene.xml\nduration_s: 0\nrobots:\n  - {name: a}\n").find("duration_s"), std::string::npos);
+  EXPECT_NE(error_of("scene: scene.xml\nrobots:\n  - {name: r, type: free_rig, waypoints: [{t_s: 0}, {t_s: 1, yaw_deg: 1e300}]}\n")
+                .find("robots[0].waypoints[1].yaw_deg"),
             std::string::npos);
   EXPECT_NE(error_of(a + "camera: {enabled: false}, imu: {enabled: true}}\n").find("robots[0].imu.enabled"),
             std::string::npos);

@@ -19,7 +19,7 @@ namespace fleetslam::sim {
 
 struct ImuModelConfig {
   bool enabled = true;          // the robot carries an IMU (read by the world; the model ignores it)
-  bool noise_enabled = true;    // false: measurements are the exact kinematics (biases zero, no draws)
+  bool noise_enabled = true;    // false: the exact kinematics plus the initial biases, held (no draws)
   core::ImuNoise noise;         // densities and rate (EuRoC-like defaults)
   std::vector<double> initial_gyro_bias_radps = {0.0, 0.0, 0.0};
   std::vector<double> initial_accel_bias_mps2 = {0.0, 0.0, 0.0};

@@ -13,6 +13,7 @@
 //       stereo: {enabled: true, baseline_m: 0.11}          # adds a right camera
 //       waypoints: [{x: 1, y: 2}, {x: 3, y: 2}]   # diff_drive: path; free_rig: timed knots (t_s, rpy)
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
@@ -58,9 +59,11 @@ struct WaypointConfig {
     v("x", x, position);
     v("y", y, position);
     v("z", z, position);
-    v("roll_deg", roll_deg);
-    v("pitch_deg", pitch_deg);
-    v("yaw_deg", yaw_deg);
+    // Unwrapped (a spline through 0, 350, 700 turns twice), within a range that keeps radians exact.
+    const core::Limits<double> angle{-1e5, 1e5};
+    v("roll_deg", roll_deg, angle);
+    v("pitch_deg", pitch_deg, angle);
+    v("yaw_deg", yaw_deg, angle);
   }
 };
 
@@ -153,7 +156,7 @@ struct ScenarioConfig {
   template <class V>
   void visit(V& v) {
     v.required("scene", scene);
-    v("duration_s", duration_s, core::Limits<double>{0.0, 1e6});
+    v("duration_s", duration_s, core::Limits<double>{1e-3, 1e6});
     v("physics_step_s", physics_step_s, core::Limits<double>{1e-5, 0.1});
     v("seed", seed, core::Limits<std::int64_t>{0, kMaxSeed});
     v("robots", robots);
@@ -184,6 +187,14 @@ void validate_scenario(ScenarioConfig& scenario, const std::filesystem::path& fi
 // validate_scenario sets it; sim::World derives it too, for a ScenarioConfig built in code.
 inline std::int64_t derived_robot_seed(std::int64_t scenario_seed, std::size_t index) {
   return scenario_seed * 1000 + static_cast<std::int64_t>(index) + 1;
+}
+
+// Whether an IMU at rate_hz samples every whole number of physics steps of step_s (its samples fall on
+// steps, so any other period gives uneven gaps under a calibration that states one rate). Checked by
+// validate_scenario and sim::World.
+inline bool imu_period_fits_steps(double rate_hz, double step_s) {
+  const double steps = 1.0 / (rate_hz * step_s);
+  return std::abs(steps - std::round(steps)) <= 1e-6 * steps;
 }
 
 }  // namespace fleetslam::sim
