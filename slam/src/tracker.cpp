@@ -185,6 +185,7 @@ TrackingResult Tracker::initialize(Frame& frame, const TrackingInputs& inputs) {
   // A new component starts where the camera was last believed to be, so the trajectory stays continuous
   // (the true link between components is unknown until relocalisation / map merging).
   component_ = ++newest_component_;  // after every component a loaded map holds, whichever it tracked in
+  in_loaded_map_ = false;  // placed in none of them: relocalisation searches this component from now on
   lost_frames_ = 0;
   relocalization_failing_since_ns_.reset();
   frames_since_relocalization_ = -1;

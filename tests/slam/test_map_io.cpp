@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -294,10 +295,30 @@ TEST(MapIo, ALoadedMapIsSearchedInAllItsComponents) {
     rng.fill(unseen.image, cv::RNG::UNIFORM, 0, 256);
     mapping.process(unseen);
   }
-  mapping.finish();
   const Map after = mapping.map_copy();
   ASSERT_GT(after.keyframe_count(), map.keyframe_count()) << "a new map started";
   EXPECT_EQ(after.keyframes().rbegin()->second.component, component + 1);
+
+  mapping.finish();
+
+  // Never placed in the loaded map: the new component started among unseen frames is not the loaded map.
+  // Lost in it, the camera relocalises within it only, never in the file's components (whose poses are in
+  // another frame: the trajectory would jump between them).
+  Agent stranger(config, test::synthetic_rgbd_rig(), core::null_logger());
+  int newest_component = -1;
+  for (int i = 0; i < 12; ++i) {
+    core::SensorFrame unseen = sequence()[static_cast<std::size_t>(i)];
+    unseen.image = cv::Mat(unseen.image.size(), unseen.image.type());
+    rng.fill(unseen.image, cv::RNG::UNIFORM, 0, 256);
+    newest_component = std::max(newest_component, stranger.process(unseen).component);
+  }
+  ASSERT_GT(newest_component, component) << "a component of its own started";
+  for (int i = 12; i < 40; ++i) {
+    const AgentUpdate u = stranger.process(sequence()[static_cast<std::size_t>(i)]);
+    EXPECT_FALSE(u.relocalized) << "frame " << i << ": " << u.reason;
+    EXPECT_EQ(u.reason.find("loaded map"), std::string::npos) << "frame " << i << ": " << u.reason;
+  }
+  stranger.finish();
 }
 
 // A map made with one vocabulary, loaded by an agent with another: the BoW vectors are recomputed with
