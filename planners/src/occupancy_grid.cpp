@@ -185,14 +185,18 @@ void OccupancyGrid::update(const core::PointCloud& cloud_world, const std::vecto
 }
 
 // Walks each ray's cells in xy (Amanatides & Woo 1987) and marks those it crosses entirely below the top
-// of the obstacle band, up to carve_stop_short_m before its point (a rising ray: up to the first cell
-// holding obstacle points).
+// of the obstacle band and above the floor, up to carve_stop_short_m before its point (a rising ray: up
+// to the first cell holding obstacle points). Only the part over the grid (and a cell around it) is
+// walked: a far point, or a sensor far outside, would walk cells nobody keeps (1e13 of them for a point
+// at 1e12 m).
 void OccupancyGrid::carve(const SensorView& view, const std::vector<int>& obstacle_count,
                           std::vector<std::uint8_t>& crossed) {
   const Eigen::Vector3d o = view.origin_world.cast<double>();
   if (!o.allFinite()) return;
   const double res = config_.resolution_m;
   const double top = config_.floor_height_m + config_.obstacle_max_height_m;
+  // A descending ray below the floor is over a drop (a stairwell, a pit): the floor there was not seen.
+  const double bottom = config_.floor_height_m - config_.floor_tolerance_m;
   const Eigen::Vector2d g = (o.head<2>() - origin_world_) / res;  // origin in cell units
   for (const Eigen::Vector3f& pf : view.points_world) {
     const Eigen::Vector3d p = pf.cast<double>();
@@ -214,8 +218,25 @@ void OccupancyGrid::carve(const SensorView& view, const std::vector<int>& obstac
     } else if (rising) {
       t_stop = std::min(t_end, (top - o.z()) / d.z());
     }
-    if (!(t_stop > t_begin)) continue;
+    if (d.z() < 0.0) t_stop = std::min(t_stop, (bottom - o.z()) / d.z());
     const Eigen::Vector2d step_cells = d.head<2>() / res;  // cells per unit t
+    // Clipped to the grid grown by a cell on each side (cells beyond it are never marked; the margin
+    // keeps the last cell inside from being taken for the one the carving ends in).
+    bool misses = false;
+    for (int axis = 0; axis < 2; ++axis) {
+      const double lo = -1.0;
+      const double hi = (axis == 0 ? width_ : height_) + 1.0;
+      if (step_cells[axis] == 0.0) {
+        misses = misses || !(g[axis] >= lo && g[axis] < hi);
+        continue;
+      }
+      double t0 = (lo - g[axis]) / step_cells[axis];
+      double t1 = (hi - g[axis]) / step_cells[axis];
+      if (t0 > t1) std::swap(t0, t1);
+      t_begin = std::max(t_begin, t0);
+      t_stop = std::min(t_stop, t1);
+    }
+    if (misses || !(t_stop > t_begin)) continue;
     int x = static_cast<int>(std::floor(g.x() + t_begin * step_cells.x()));
     int y = static_cast<int>(std::floor(g.y() + t_begin * step_cells.y()));
     const int sx = step_cells.x() > 0.0 ? 1 : -1;

@@ -225,6 +225,34 @@ TEST(OccupancyGrid, RaysAboveTheBandOrBeyondAnObstacleTheyRiseOverClearNothing) 
   EXPECT_EQ(state_at(grid, 3.9, 0.325), CellState::kFree);
 }
 
+// A ray down into a pit (a point below the floor) clears only the cells it crosses above the floor: the
+// drop beyond was never seen as floor. A garbage point 1e12 m away, and a sensor far outside the grid,
+// walk only the grid's cells (before, the first walked 1e13 cells and never ended).
+TEST(OccupancyGrid, RaysClearNothingBelowTheFloorOrOutsideTheGrid) {
+  OccupancyGridConfig config = grid_config();
+  config.bounds_xy_m = {0.0, 0.0, 5.0, 1.0};
+  config.carve_stop_short_m = 0.0;
+  OccupancyGrid grid(config);
+  SensorView pit;
+  pit.origin_world = Eigen::Vector3f(0.01f, 0.525f, 0.3f);
+  pit.points_world = {Eigen::Vector3f(4.01f, 0.525f, -0.9f)};  // below the floor (z < -0.05) from x = 1.177
+  SensorView far_point;
+  far_point.origin_world = Eigen::Vector3f(0.01f, 0.225f, 0.3f);
+  far_point.points_world = {Eigen::Vector3f(1e12f, 0.225f, 0.3f)};
+  SensorView far_sensor;
+  far_sensor.origin_world = Eigen::Vector3f(-1e12f, 0.825f, 0.3f);
+  far_sensor.points_world = {Eigen::Vector3f(2.01f, 0.825f, 0.3f)};
+  grid.update(core::PointCloud{}, {pit, far_point, far_sensor});
+  EXPECT_EQ(state_at(grid, 1.075, 0.525), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 1.175, 0.525), CellState::kUnknown);  // the ray is below the floor across it
+  EXPECT_EQ(state_at(grid, 3.0, 0.525), CellState::kUnknown);
+  EXPECT_EQ(state_at(grid, 0.025, 0.225), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 4.975, 0.225), CellState::kFree);  // to the grid's far edge
+  EXPECT_EQ(state_at(grid, 0.025, 0.825), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 1.975, 0.825), CellState::kFree);
+  EXPECT_EQ(state_at(grid, 2.025, 0.825), CellState::kUnknown);  // the cell the carving ends in
+}
+
 // A bed 0.5 m tall seen by a camera 0.3 m up: the camera sees its near side, not its top. Rays to the
 // wall behind rise over the bed's cells and must not clear them, or the planner routes the robot through a
 // gap in the near side onto the bed. Rays down to the floor and the side's lower part clear the floor in

@@ -9,7 +9,8 @@
 //   unknown   otherwise.
 // Free-space carving (carve_rays): a point seen from a sensor means nothing stood between them. Each ray
 // from a SensorView's origin to its points clears the cells it crosses while it is below the top of the
-// obstacle band (obstacle_max_height_m; a ray above it says nothing about what stands lower), up to
+// obstacle band (obstacle_max_height_m; a ray above it says nothing about what stands lower) and above the
+// floor (a ray below floor_height_m - floor_tolerance_m is over a drop whose floor was not seen), up to
 // carve_stop_short_m before the point and never the cell the carving ends in. A rising ray stops at the
 // first cell holding obstacle points: it passes over what stands lower than it, and a thing taller than
 // the sensor hides its top (a bed seen from below is only its near side in the map), so beyond its seen
