@@ -386,6 +386,15 @@ void OccupancyGrid::recompute_clearances() {
       distance_transform(width_, height_, res, [this](std::size_t i) { return cells_[i] == CellState::kOccupied; });
   clearance_blocked_m_ =
       distance_transform(width_, height_, res, [this](std::size_t i) { return cells_[i] != CellState::kFree; });
+  // Outside the grid is unknown too: the nearest outside cell's centre is straight across the nearest
+  // border, (x + 1) cells from cell x's (or width - x across the far one).
+  for (int y = 0; y < height_; ++y) {
+    for (int x = 0; x < width_; ++x) {
+      const int cells = std::min({x + 1, y + 1, width_ - x, height_ - y});
+      float& c = clearance_blocked_m_[index({x, y})];
+      c = std::min(c, static_cast<float>(cells * res));
+    }
+  }
 }
 
 std::optional<CellIndex> OccupancyGrid::cell_of(const Eigen::Vector2d& p_world) const {

@@ -349,6 +349,9 @@ TEST(OccupancyGrid, InflationMatchesBruteForceClearance) {
       double d_occ = std::numeric_limits<double>::infinity(), d_blk = d_occ;
       for (const auto& o : occupied) d_occ = std::min(d_occ, (o - c).norm());
       for (const auto& o : blocked) d_blk = std::min(d_blk, (o - c).norm());
+      // Outside the grid is unknown: the nearest outside cell straight across a border.
+      const int across = std::min({x + 1, y + 1, grid.width() - x, grid.height() - y});
+      d_blk = std::min(d_blk, across * config.resolution_m);
       EXPECT_NEAR(grid.clearance_m({x, y}, UnknownCells::kFree), d_occ, 1e-5);
       EXPECT_NEAR(grid.clearance_m({x, y}, UnknownCells::kOccupied), d_blk, 1e-5);
     }
@@ -364,6 +367,22 @@ TEST(OccupancyGrid, InflationMatchesBruteForceClearance) {
   EXPECT_FALSE(grid.traversable(Eigen::Vector2d(-0.6, 2.0), UnknownCells::kOccupied));
   EXPECT_TRUE(grid.traversable(Eigen::Vector2d(-0.6, 2.0), UnknownCells::kFree));
   EXPECT_FALSE(grid.traversable(Eigen::Vector2d(10.0, 2.0), UnknownCells::kFree));  // outside the grid
+}
+
+// A grid free to its border: with unknown cells as occupied, outside the grid counts as unknown, so a
+// robot's body may not reach past the border; with unknown cells as free, the border does not matter.
+TEST(OccupancyGrid, OutsideTheGridIsUnknownForTheClearance) {
+  OccupancyGrid grid(grid_config(0.2));
+  grid.set_cells(Eigen::Vector2d::Zero(), 20, 12, std::vector<CellState>(20 * 12, CellState::kFree));
+  EXPECT_NEAR(grid.clearance_m({0, 6}, UnknownCells::kOccupied), 0.05, 1e-6);
+  EXPECT_NEAR(grid.clearance_m({19, 6}, UnknownCells::kOccupied), 0.05, 1e-6);
+  EXPECT_NEAR(grid.clearance_m({10, 2}, UnknownCells::kOccupied), 0.15, 1e-6);
+  EXPECT_NEAR(grid.clearance_m({10, 6}, UnknownCells::kOccupied), 0.30, 1e-6);  // 6 cells to y = 12
+  EXPECT_FALSE(grid.traversable(CellIndex{10, 2}, UnknownCells::kOccupied));
+  EXPECT_FALSE(grid.traversable(CellIndex{10, 3}, UnknownCells::kOccupied));  // 4 cells: at the radius
+  EXPECT_TRUE(grid.traversable(CellIndex{10, 4}, UnknownCells::kOccupied));
+  EXPECT_TRUE(grid.traversable(CellIndex{0, 6}, UnknownCells::kFree));
+  EXPECT_GT(grid.clearance_m({0, 6}, UnknownCells::kFree), 1e3);  // nothing occupied anywhere
 }
 
 // The inflation's edge: traversable when the centre-to-centre clearance exceeds the radius, and a cell

@@ -21,7 +21,8 @@
 // there: keep carve_stop_short_m below the resolution (the wall's own cell is never carved anyway).
 // Inflation: every cell keeps its clearance, the distance between its centre and the centre of the
 // nearest occupied cell (exact Euclidean distance transform, Felzenszwalb & Huttenlocher 2012), and a
-// second clearance to the nearest occupied-or-unknown cell. A cell is traversable for the robot's centre
+// second clearance to the nearest occupied-or-unknown cell, cells outside the grid included (they are
+// unknown). A cell is traversable for the robot's centre
 // when it is free (or unknown, where unknown cells count as free) and its clearance exceeds
 // robot_radius_m (centre to centre, as ROS costmaps inflate). A clearance exactly at the limit is
 // blocked: compared in cells, with a tolerance far below the gap between two grid distances, not against
