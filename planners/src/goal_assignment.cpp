@@ -49,10 +49,13 @@ GoalAssignment GoalAssigner::assign(const std::vector<Eigen::Vector2d>& robots_w
       for (std::size_t g = 0; g < ng; ++g) {
         if (goal_taken[g] || !std::isfinite(travel[r][g])) continue;
         double penalty = 0.0;
+        bool same = false;
         for (const Eigen::Vector2d& a : assigned) {
           const double d = (a - goals_world[g]).norm();
+          same = same || d <= config_.same_goal_m;
           if (d < config_.separation_m) penalty += config_.separation_penalty_m * (1.0 - d / config_.separation_m);
         }
+        if (same) continue;
         const double gain = gains_m2.empty() ? 0.0 : config_.gain_weight_m_per_m2 * gains_m2[g];
         const double cost = travel[r][g] + penalty - gain;
         if (cost < best) {

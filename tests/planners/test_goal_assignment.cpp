@@ -46,6 +46,24 @@ TEST(GoalAssigner, PenaltySpreadsRobotsOverFrontiers) {
   EXPECT_EQ(spread.goal_of_robot, (std::vector<int>{0, 2}));
 }
 
+// Two goals at one spot (two frontiers snapped to one cell): never given to two robots, whatever the
+// penalty; same_goal_m widens "one spot". A config set in code is checked against its limits.
+TEST(GoalAssigner, OneSpotIsNeverGivenToTwoRobots) {
+  const std::vector<Eigen::Vector2d> robots{{0.0, 0.0}, {0.0, 0.4}};
+  GoalAssignmentConfig c;
+  c.cost = AssignmentCost::kStraightLine;
+  c.separation_penalty_m = 0.0;
+  // Robot 1 takes (3, 0.4); the copy of it would be robot 0's cheapest (3.03 m against 3.16 m).
+  EXPECT_EQ(GoalAssigner(c).assign(robots, {{3.0, 0.4}, {3.0, 0.4}, {3.0, -1.0}}).goal_of_robot,
+            (std::vector<int>{2, 0}));
+  const std::vector<Eigen::Vector2d> close{{3.0, 0.4}, {3.0, 0.3}, {3.0, -1.0}};
+  EXPECT_EQ(GoalAssigner(c).assign(robots, close).goal_of_robot, (std::vector<int>{1, 0}));
+  c.same_goal_m = 0.15;  // 10 cm apart is one spot now
+  EXPECT_EQ(GoalAssigner(c).assign(robots, close).goal_of_robot, (std::vector<int>{2, 0}));
+  c.same_goal_m = -1.0;
+  EXPECT_THROW(GoalAssigner{c}, InputError);
+}
+
 // With a gain weight, a goal that shows more unknown floor is worth its longer trip; without one, or
 // without gains, the nearest goal wins. Gains that do not fit the goals are input errors.
 TEST(GoalAssigner, GainsWeighAgainstTravel) {

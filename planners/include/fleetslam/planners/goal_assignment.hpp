@@ -6,7 +6,8 @@
 // separation_m) for each such goal closer than separation_m), minus gain_weight_m_per_m2 times the goal's
 // gain when gains are given (exploration: the unknown floor a frontier would show, so that a doorway onto
 // an unseen room comes before the leftovers of the room a robot is in). Ties go to the lower robot index, then the
-// lower goal index. Unreachable goals (grid cost infinite) are never assigned; robots left without a goal
+// lower goal index. A goal at the spot of one already given (within same_goal_m) is not given again.
+// Unreachable goals (grid cost infinite) are never assigned; robots left without a goal
 // get -1.
 
 #include <vector>
@@ -26,6 +27,9 @@ struct GoalAssignmentConfig {
   double separation_penalty_m = 5.0;
   UnknownCells unknown_cells = UnknownCells::kOccupied;  // for kGridPath
   double gain_weight_m_per_m2 = 0.0;  // metres of travel one square metre of gain is worth (0: gains ignored)
+  // A goal within this of one already given is given too: two robots are never sent to one spot (two
+  // frontiers snapped to one cell), whatever the separation penalty. 0: identical positions only.
+  double same_goal_m = 0.0;
 
   template <class V>
   void visit(V& v) {
@@ -34,6 +38,7 @@ struct GoalAssignmentConfig {
     v("separation_penalty_m", separation_penalty_m, core::Limits<double>{0.0, 1e6});
     v.choice("unknown_cells", unknown_cells, {{"free", UnknownCells::kFree}, {"occupied", UnknownCells::kOccupied}});
     v("gain_weight_m_per_m2", gain_weight_m_per_m2, core::Limits<double>{0.0, 1e6});
+    v("same_goal_m", same_goal_m, core::Limits<double>{0.0, 1000.0});
   }
 };
 
@@ -45,7 +50,7 @@ struct GoalAssignment {
 class GoalAssigner {
  public:
   using Config = GoalAssignmentConfig;
-  explicit GoalAssigner(const Config& config) : config_(config) {}
+  explicit GoalAssigner(const Config& config) : config_(config) { core::check_config(config_, "goal_assignment"); }
 
   // grid is needed for kGridPath (InputError when null). gains_m2: empty, or one per goal (InputError
   // otherwise, or for a gain that is negative or not finite).
