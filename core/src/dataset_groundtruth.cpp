@@ -98,7 +98,7 @@ void attach_groundtruth(RecordedSequence& sequence, const std::filesystem::path&
   }
   // The truth at the IMU samples, in the rig's body frame (the IMU): the file's poses moved through cam0
   // to it, T_world_body = T_world_file * T_file_cam0 * T_body_cam0^-1. The file's body need not be the
-  // IMU (EuRoC's B is wherever imu0/sensor.yaml's T_BS says the IMU is not); without the rig's body
+  // IMU (EuRoC's body frame B, in which imu0/sensor.yaml's T_BS places the IMU); without the rig's body
   // there is no truth at the samples.
   std::optional<Eigen::Isometry3d> T_file_body;  // the rig's body in the frame the file's poses are of
   if (rig_T_body_cam0) {
