@@ -3,7 +3,8 @@
 // a dense sample of points (the simulator's surface_points, or any reference cloud).
 //   accuracy      distance from each map point to the true surface: to the plane fitted to its nearest
 //                 truth samples (so the sampling spacing does not inflate it), or to the nearest sample
-//                 where the samples there are not planar; mean, median and 95th percentile;
+//                 where the samples there are not planar; mean, median and 95th percentile (each the
+//                 sorted distance at rank floor(q (n - 1)), not interpolated: maps hold 1e4+ points);
 //   completeness  share of truth samples with a map point within `completeness_radius_m`.
 // Map points farther than `max_distance_m` from any truth sample (outliers, moving robots seen by
 // another robot) count as max_distance_m in the statistics and are counted separately.
