@@ -95,16 +95,7 @@ MapMerger::MapMerger(const Config& config, core::Logger logger)
       local_registration_(config.local_registration),
       sampler_(config.sampling),
       filter_(config.filter),
-      logger_(logger ? std::move(logger) : core::null_logger()) {
-  if (config_.min_overlap_points < 1) throw InputError("min_overlap_points", "must be at least 1");
-  if (config_.refinement_rounds < 1) throw InputError("refinement_rounds", "must be at least 1");
-  if (!(config_.refine_radius_m > 0.0) || !std::isfinite(config_.refine_radius_m)) {
-    throw InputError("refine_radius_m", "must be positive");
-  }
-  if (!(config_.min_inlier_ratio >= 0.0 && config_.min_inlier_ratio <= 1.0)) {
-    throw InputError("min_inlier_ratio", "must be in [0, 1]");
-  }
-}
+      logger_(logger ? std::move(logger) : core::null_logger()) {}
 
 namespace detail {
 
